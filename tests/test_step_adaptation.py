@@ -21,7 +21,7 @@ from wbik.motion.walking.footsteps import StepCommand
 from wbik.motion.walking.pattern import feet_at_ticks, walk_pattern
 from wbik.motion.walking.preview import PreviewState
 from wbik.motion.walking.step_adaptation import StepAdaptation, adapted, step_responses
-from wbik.motion.walking.swing import quintic
+from wbik.motion.walking.swing import quintic, swing_pose
 from wbik.motion.walking.timeline import Timing, phase_at
 from wbik.motion.walking.zmp_reference import ZmpReference
 
@@ -53,13 +53,15 @@ def replanned(pattern, k: int, moved) -> tuple[np.ndarray, np.ndarray, dict]:
         com[tick, :2], zmp[tick] = state.x[0], controller.zmp_of(state.x[0], state.x[2])
         state.step(tracked[tick + 1:tick + 1 + controller.steps], tracked[tick])
     phase = phase_at(pattern.phases, k * dt)
-    landing = int(round(phase.end / dt))
+    touch = int(round(phase_at(moved.phases, k * dt).end / dt))
     feet = feet_at_ticks(moved.phases, pattern.feet, dt, count, pattern.clearance)[0]
     move = moved.footsteps[-1].placement.translation - pattern.footsteps[-1].placement.translation
-    for tick in range(k, landing):
-        feet[phase.swing.side][tick] = pin.SE3(pattern.feet_poses[phase.swing.side][tick].rotation,
-                                               pattern.feet_poses[phase.swing.side][tick].translation
-                                               + quintic((tick - k) / (landing - k)) * move)
+    lift, target = phase.feet[phase.swing.side], phase.swing.placement
+    at_k = phase.fraction(k * dt)
+    for tick in range(k, touch):  # the old swing, re-timed to touch down at ``touch``, blended onto the move
+        share = (tick - k) / (touch - k)
+        pose = swing_pose(lift, target, at_k + (1 - at_k) * share, pattern.clearance)
+        feet[phase.swing.side][tick] = pin.SE3(pose.rotation, pose.translation + quintic(share) * move)
     return com, zmp, feet
 
 
@@ -81,9 +83,10 @@ def test_a_replan_that_moves_nothing_is_the_planned_pattern(pattern, responses):
 
 
 @pytest.mark.parametrize("which", [0, 1, 3])  # the last (4th) moves the final reference by half
-def test_the_replan_is_the_preview_run_again_over_the_moved_reference(pattern, responses, which):
+@pytest.mark.parametrize("sooner", [0, 4])  # touch-down 4 ticks earlier, the later phases with it
+def test_the_replan_is_the_preview_run_again_over_the_moved_reference(pattern, responses, which, sooner):
     k = single_support_tick(pattern, which)
-    moved = adapted(pattern, k, np.array([0.012, -0.005]), responses)
+    moved = adapted(pattern, k, np.array([0.012, -0.005]), responses, sooner)
     com, zmp, feet = replanned(pattern, k, moved)
     assert np.max(np.abs(moved.com - com)) < 1e-12 and np.max(np.abs(moved.lipm_zmp - zmp)) < 1e-12
     for side in feet:

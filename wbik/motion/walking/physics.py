@@ -82,6 +82,8 @@ class Measured:
     """The pushes applied (:class:`wbik.viz.animation.PushArrow`: frame, start, end (s), force (N))."""
     step_moves: list = field(default_factory=list)
     """The controller's step moves: (time (s), x, y (m)) of each move of the steps it applied."""
+    touch_downs_sooner: list = field(default_factory=list)
+    """The controller's touch-downs brought forward: (time (s), how much sooner (s))."""
     tick_cpu_s: list = field(default_factory=list)
     """The controller's CPU time (s) of each tick (a closed loop's; empty open loop)."""
 
@@ -96,6 +98,7 @@ class Measured:
                                               else None),
                 "ticks_without_contact": int(np.isnan(margins).sum()),
                 "step_move_max_m": max((math.hypot(x, y) for _, x, y in self.step_moves), default=0.0),
+                "touch_down_sooner_max_s": max((early for _, early in self.touch_downs_sooner), default=0.0),
                 "tick_cpu_max_s": max(self.tick_cpu_s, default=None)}
 
 

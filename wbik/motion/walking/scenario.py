@@ -254,8 +254,11 @@ def _physics_line(physics: dict) -> str:
         margin = figures["cop_margin_min_m"]
         travel = (f", {figures['base_travel_m'] * 1e3:.0f} of {figures['planned_travel_m'] * 1e3:.0f} mm"
                   if "base_travel_m" in figures else "")
-        moved = (f", steps moved up to {figures['step_move_max_m'] * 1e3:.0f} mm (controller CPU per tick "
-                 f"max {figures['tick_cpu_max_s'] * 1e3:.2f} ms)" if figures.get("step_move_max_m") else "")
+        sooner = (f", a touch-down up to {figures['touch_down_sooner_max_s']:.2f} s sooner"
+                  if figures.get("touch_down_sooner_max_s") else "")
+        cpu = f"controller CPU per tick max {(figures.get('tick_cpu_max_s') or 0.0) * 1e3:.2f} ms"
+        moved = (f", steps moved up to {figures['step_move_max_m'] * 1e3:.0f} mm{sooner} ({cpu})"
+                 if figures.get("step_move_max_m") else "")
         return f"{fell}, CoP margin min {'-' if margin is None else f'{margin * 1e3:.1f}'} mm{travel}{moved}"
 
     ticks = physics["tick_cpu"]
@@ -362,7 +365,7 @@ def walk_schema() -> Map:
                    "step_adaptation": Key(from_dataclass(StepAdaptation, {
                        "gain": Number(ge=0), "threshold_m": Number(ge=0, unit="m"),
                        "offset_max_m": Number(ge=0, unit="m"), "min_remaining_s": Number(ge=0, unit="s"),
-                       "change_m": Number(ge=0, unit="m")}), None,
+                       "change_m": Number(ge=0, unit="m"), "sooner_max_s": Number(ge=0, unit="s")}), None,
                                           doc="the closed loop moves the steps by the predicted DCM error")},
                   nullable=True)
     walks = ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, turn_deg, first, "

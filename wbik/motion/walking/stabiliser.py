@@ -116,10 +116,11 @@ def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0
             except NoQPSolutionError:
                 pass  # the servos keep the last command
             cpu.append(time.thread_time() - started)
-            if not sim.run(command, pattern.dt, measured, None if lead is None else lead[min(k, last)]):
+            ahead = min(k + pattern.info.get("ticks_sooner", 0), last)  # the plan's tick (touch-downs sooner)
+            if not sim.run(command, pattern.dt, measured, None if lead is None else lead[ahead]):
                 break
     if stepper is not None:
-        measured.step_moves = stepper.moves
+        measured.step_moves, measured.touch_downs_sooner = stepper.moves, stepper.soonest
     measured.tick_cpu_s = cpu
     return measured, np.array(cpu)
 
