@@ -148,7 +148,8 @@ def test_a_pushed_walk_moves_its_steps_in_physics():
             "clearance": 0.015, "margin": 0.004, "preview": {"horizon_s": 1.0, "q": 1.0, "r": 1.0e-5},
             "physics": {"servos": {"kp": 37.05, "damping": 0.243, "torque_limit": 1.5, "armature": 1e-3},
                         "settle_s": 0.2,
-                        "step_adaptation": {"gain": 0.5, "threshold_m": 0.005, "offset_max_m": 0.012},
+                        "step_adaptation": {"gain": 0.5, "threshold_m": 0.005, "offset_max_m": 0.012,
+                                            "min_remaining_s": 0.03, "sooner_max_s": 0.05},
                         "push": {"impulse_n_s": 0.3, "step": 1, "duration_s": 0.05,
                                  "directions": ["forward"]}},
             "walks": [{"steps": 2, "length": 0.02}]}
@@ -156,6 +157,7 @@ def test_a_pushed_walk_moves_its_steps_in_physics():
     assert physics["step_adaptation"]["gain"] == 0.5
     pushed = physics["pushed"]["forward"]
     assert 0 < pushed["step_move_max_m"] <= 0.012 + 1e-12
+    assert 0 < pushed["touch_down_sooner_max_s"] <= 0.05 + 1e-12  # the move wanted was over the cap
 
 
 @settings(max_examples=60, deadline=None)
@@ -174,3 +176,19 @@ def test_any_move_stays_under_its_cap_and_never_crosses_toward_the_stance_foot(p
     predicted = np.linalg.norm(error) * math.exp(pattern.info["omega"] * remaining)
     if predicted <= 0.005 * (1 - 1e-9):
         assert not np.any(move)
+
+
+@settings(max_examples=80, deadline=None)
+@given(size=st.floats(0.0, 0.05), remaining=st.floats(0.0, 0.3), gain=st.floats(0.05, 2.0),
+       cap=st.floats(0.001, 0.05), most=st.floats(0.0, 0.2))
+def test_a_touch_down_comes_sooner_only_as_much_as_keeps_the_move_at_its_cap(size, remaining, gain, cap,
+                                                                             most):
+    omega, least = 7.0, 0.03
+    settings = StepAdaptation(gain=gain, offset_max_m=cap, min_remaining_s=least, sooner_max_s=most)
+    sooner = settings.sooner(omega, np.array([size, 0.0]), remaining)
+    wanted = gain * size * math.exp(omega * remaining)
+    assert 0.0 <= sooner <= most + 1e-12 and sooner <= max(remaining - least, 0.0) + 1e-12
+    if wanted <= cap or most == 0:
+        assert sooner == 0.0
+    elif 0 < sooner < min(most, remaining - least) - 1e-9:  # not bounded: the move at the cap exactly
+        assert gain * size * math.exp(omega * (remaining - sooner)) == pytest.approx(cap, rel=1e-9)
