@@ -20,7 +20,13 @@ from wbik.motion.walking.control_loop import without_cyclic_gc
 from wbik.motion.walking.pattern import WalkPattern
 from wbik.motion.walking.physics import Measured, Servos, Simulation, servo_joints
 from wbik.motion.walking.planned_torques import planned_torques
-from wbik.motion.walking.step_adaptation import StepAdaptation, Stepper, step_responses
+from wbik.motion.walking.step_adaptation import (
+    StepAdaptation,
+    Stepper,
+    measure,
+    stance_dcm_error,
+    step_responses,
+)
 from wbik.motion.walking.tracking import Tracker, WalkMotion
 
 
@@ -63,16 +69,16 @@ class Stabiliser:
 
     def corrections(self, q: np.ndarray, v: np.ndarray, now: int) -> tuple[np.ndarray, np.ndarray]:
         """(CoM offset (m), trunk correction (rotation)) from the state (q, v) measured at tick ``now``."""
-        model, data, pattern, gains = self.robot.model, self.data, self.pattern, self.gains
-        com = pin.centerOfMass(model, data, q, v)
-        pin.framesForwardKinematics(model, data, q)
-        stance = np.mean([data.oMf[self.robot.frame_id(f)].translation for f in pattern.support[now]], axis=0)
-        planned = np.mean([p.translation for p in pattern.stance(now).values()], axis=0)
+        measure(self.robot, self.data, q, v)
+        return self.measured_corrections(now)
+
+    def measured_corrections(self, now: int) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`corrections` from the state :func:`measure` put into ``data`` at tick ``now``."""
+        data, pattern, gains = self.data, self.pattern, self.gains
         velocity = (pattern.com[now] - pattern.com[max(now - 1, 0)]) / pattern.dt
-        omega = pattern.info["omega"]
-        error = com - stance - (pattern.com[now] - planned) + (data.vcom[0] - velocity) / omega
+        error = stance_dcm_error(self.robot, data, pattern, now, velocity)
         wanted = np.zeros(3)
-        wanted[:2] = np.clip(-gains.dcm * error[:2], -gains.com_offset_max, gains.com_offset_max)
+        wanted[:2] = np.clip(-gains.dcm * error, -gains.com_offset_max, gains.com_offset_max)
         self.offset += (wanted - self.offset) * min(1.0, pattern.dt / max(gains.time_constant_s, 1e-9))
         trunk = self.tracker.trunk_rotation(pattern.trunk_yaw[now] - pattern.trunk_yaw[0])
         tilt = pin.log3(data.oMf[self.trunk].rotation @ trunk.T)
@@ -105,12 +111,12 @@ def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0
     with without_cyclic_gc():
         for k in range(1, pattern.ticks + int(round(settle_s / pattern.dt))):
             started = time.thread_time()
-            state = sim.state()
+            measure(stabiliser.robot, stabiliser.data, *sim.state())  # once: the stepper and the stabiliser
             if stepper is not None and k - 1 <= last:
-                moved = stepper(stabiliser.robot, stabiliser.data, pattern, *state, k - 1)
+                moved = stepper(stabiliser.robot, stabiliser.data, pattern, k - 1)
                 if moved is not None:
                     pattern = stabiliser.pattern = moved
-            offset, rotation = stabiliser.corrections(*state, min(k - 1, last))
+            offset, rotation = stabiliser.measured_corrections(min(k - 1, last))
             try:
                 command = tracker.step(command, pattern, min(k, last), offset, rotation)
             except NoQPSolutionError:

@@ -23,6 +23,9 @@ from wbik.motion.walking.swing import quintic, swing_pose
 from wbik.motion.walking.timeline import Phase, phase_at, timeline
 from wbik.motion.walking.zmp_reference import ZmpReference
 from wbik.robot import Robot
+from wbik.schema import Number
+
+NON_NEGATIVE = Number(ge=0)
 
 
 @dataclass(frozen=True)
@@ -43,9 +46,7 @@ class StepAdaptation:
 
     def __post_init__(self) -> None:
         for name in ("gain", "threshold_m", "offset_max_m", "min_remaining_s", "change_m", "sooner_max_s"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-                raise InvalidSettingError(f"step adaptation: {name} is a number >= 0, got {value!r}")
+            NON_NEGATIVE.checked(getattr(self, name), name, "StepAdaptation", InvalidSettingError)
 
     def remaining(self, pattern: WalkPattern, k: int) -> float | None:
         """The time (s) from tick k to touch-down when the steps may still move, else None."""
@@ -80,17 +81,21 @@ class StepAdaptation:
         return max(remaining - max(wanted, self.min_remaining_s, remaining - self.sooner_max_s), 0.0)
 
 
-def stance_dcm_error(robot: Robot, data: pin.Data, pattern: WalkPattern, q: np.ndarray, v: np.ndarray,
-                     k: int) -> np.ndarray:
-    """The DCM error (x, y; m) of the measured state (q, v) against ``pattern``'s at tick k, each relative to
-    its stance soles: (c - s) - (c_d - s_d) + (c' - c_d') / omega (c_d, c_d' the preview's state)."""
-    com = pin.centerOfMass(robot.model, data, q, v)
+def measure(robot: Robot, data: pin.Data, q: np.ndarray, v: np.ndarray) -> None:
+    """Into ``data``: the measured state's CoM and its velocity, and every frame's placement (once a tick)."""
+    pin.centerOfMass(robot.model, data, q, v)
     pin.framesForwardKinematics(robot.model, data, q)
+
+
+def stance_dcm_error(robot: Robot, data: pin.Data, pattern: WalkPattern, k: int,
+                     planned_velocity: np.ndarray) -> np.ndarray:
+    """The DCM error (x, y; m) of the state :func:`measure` put into ``data`` against ``pattern``'s at tick k
+    (its CoM velocity ``planned_velocity``), each relative to its stance soles:
+    (c - s) - (c_d - s_d) + (c' - c_d') / omega."""
     stance = np.mean([data.oMf[robot.frame_id(frame)].translation for frame in pattern.support[k]], axis=0)
     planned_stance = np.mean([p.translation for p in pattern.stance(k).values()], axis=0)
-    planned = pattern.info["replan"].states[k]
-    return (com[:2] - stance[:2] - (planned[0] - planned_stance[:2])
-            + (data.vcom[0][:2] - planned[1]) / pattern.info["omega"])
+    return (data.com[0][:2] - stance[:2] - (pattern.com[k, :2] - planned_stance[:2])
+            + (data.vcom[0][:2] - np.asarray(planned_velocity)[:2]) / pattern.info["omega"])
 
 
 @dataclass(frozen=True)
@@ -260,9 +265,9 @@ class Stepper:
     _applied: np.ndarray = field(default_factory=lambda: np.zeros(2))
     _retimed: bool = False
 
-    def __call__(self, robot: Robot, data: pin.Data, pattern: WalkPattern, q: np.ndarray, v: np.ndarray,
-                 k: int) -> WalkPattern | None:
-        """The pattern re-planned at tick ``k`` from the state (q, v) measured then, or None (no change)."""
+    def __call__(self, robot: Robot, data: pin.Data, pattern: WalkPattern, k: int) -> WalkPattern | None:
+        """The pattern re-planned at tick ``k`` from the state :func:`measure` put into ``data``, or None (no
+        change)."""
         remaining = self.settings.remaining(pattern, k)
         if remaining is None:
             return None
@@ -270,7 +275,7 @@ class Stepper:
         if self._started != started:
             self._started, self._base, self._applied, self._retimed = started, pattern, np.zeros(2), False
         base = self._base
-        error = stance_dcm_error(robot, data, base, q, v, k)
+        error = stance_dcm_error(robot, data, base, k, base.info["replan"].states[k][1])
         sooner = 0
         if not self._retimed:
             sooner = int(self.settings.sooner(pattern.info["omega"], error, remaining) / pattern.dt + 1e-9)
