@@ -62,6 +62,23 @@ def test_the_simulated_robot_has_pinocchios_mass_com_and_momentum(bioloid):
     np.testing.assert_allclose(sim.state()[1], v, atol=1e-12)  # and read back in wbik's convention
 
 
+def test_a_joint_whose_urdf_states_no_effort_gets_an_unlimited_servo():
+    """A URDF effort of 0 (Romeo's hands) states no limit: the scene compiles, the servo holds the joint."""
+    flap = """<link name="sole"/>
+  <link name="flap"><inertial><origin xyz="0.05 0 0"/><mass value="0.1"/>
+    <inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="hinge" type="revolute"><parent link="block"/><child link="flap"/><origin xyz="0 0 0.2"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="0" velocity="1"/></joint>"""
+    robot = robot_from_urdf_text("block", BLOCK.replace('<link name="sole"/>', flap), floating_base=True,
+                                 soles={"sole": [[0.05, 0.03, 0.0], [-0.05, 0.03, 0.0], [-0.05, -0.03, 0.0],
+                                                 [0.05, -0.03, 0.0]]})
+    sim = Simulation(robot, Servos(50.0, kv=1.0), robot.nominal)
+    held(sim, robot.nominal, 0.3)
+    hinge = robot.model.joints[robot.model.getJointId("hinge")].idx_q
+    assert abs(sim.state()[0][hinge] - robot.nominal[hinge]) < 0.02  # held against the flap's weight
+    assert sim.model.actuator_forcelimited[0] == 0
+
+
 def test_a_block_at_rest_presses_its_weight_at_its_com():
     robot = robot_from_urdf_text("block", BLOCK, floating_base=True, soles={"sole": [
         [0.05, 0.03, 0.0], [-0.05, 0.03, 0.0], [-0.05, -0.03, 0.0], [0.05, -0.03, 0.0]]})

@@ -27,7 +27,7 @@ FALLEN_HEIGHT_RATIO = 0.75  # fallen: the CoM below this fraction of its startin
 @dataclass(frozen=True)
 class Servos:
     """Position servos: gains ``kp`` (N m/rad) and ``kv`` (N m s/rad) inside the ``torque_limit`` (N m; None:
-    the URDF's effort limits), ``damping`` (N m s/rad) outside it, ``armature`` (the rotor's inertia through
+    the URDF's effort limits, where an effort of 0 states none), ``damping`` (N m s/rad) outside it, ``armature`` (the rotor's inertia through
     the gears, kg m^2), ``resolution`` (rad)."""
 
     kp: float
@@ -153,15 +153,17 @@ class Simulation:
             self._add_sole(spec, sole, np.asarray(corners, dtype=float), friction)
         for j in self.joints:
             name = model.names[j]
-            limit = model.effortLimit[model.joints[j].idx_v] if servos.torque_limit is None \
-                else servos.torque_limit
+            limit = float(model.effortLimit[model.joints[j].idx_v] if servos.torque_limit is None
+                          else servos.torque_limit)
+            limited = math.isfinite(limit) and limit > 0  # a URDF's effort of 0 (or none) states no limit
             joint = spec.joint(name)
             joint.armature, joint.damping = servos.armature, [servos.damping, 0.0, 0.0]
-            joint.actfrcrange, joint.actfrclimited = [-limit, limit], True  # not the URDF's effort
+            if limited:
+                joint.actfrcrange, joint.actfrclimited = [-limit, limit], True  # not the URDF's effort
             spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
                               gaintype=mujoco.mjtGain.mjGAIN_FIXED, biastype=mujoco.mjtBias.mjBIAS_AFFINE,
                               gainprm=[servos.kp] + [0] * 9, biasprm=[0, -servos.kp, -servos.kv] + [0] * 7,
-                              forcerange=[-limit, limit], forcelimited=True)
+                              forcerange=[-limit, limit] if limited else [0.0, 0.0], forcelimited=limited)
         return compiled_body(robot, spec, sites, mujoco)
 
     def _add_sole(self, spec, sole: str, corners: np.ndarray, friction: float) -> None:
