@@ -27,8 +27,8 @@ FALLEN_HEIGHT_RATIO = 0.75  # fallen: the CoM below this fraction of its startin
 @dataclass(frozen=True)
 class Servos:
     """Position servos: gains ``kp`` (N m/rad) and ``kv`` (N m s/rad) inside the ``torque_limit`` (N m; None:
-    the URDF's effort limits, where an effort of 0 states none), ``damping`` (N m s/rad) outside it, ``armature`` (the rotor's inertia through
-    the gears, kg m^2), ``resolution`` (rad)."""
+    the URDF's effort limits, where an effort of 0 states none), ``damping`` (N m s/rad) outside it,
+    ``armature`` (the rotor's inertia through the gears, kg m^2), ``resolution`` (rad)."""
 
     kp: float
     kv: float = 0.0
