@@ -192,7 +192,7 @@ def test_defaults_are_the_ones_of_the_code_the_keys_feed():
     """Values restated from the seeds and the module docstrings, not read from the schema's code."""
     turn = validate({"kind": "bioloid_turn"}, "t")
     assert turn["turn_deg"] == 20.0 and turn["timing"] == {"speed_rpm": 40.0, "law": "quintic",
-                                                            "mode": "segment"}
+                                                            "mode": "segment", "zmp_shift_max_m": None}
     assert turn["export"]["dt"] == 0.02
     walk = validate({"kind": "bioloid_walk"}, "w")
     assert (walk["steps"], walk["turn_deg"], walk["first"], walk["rear_lift"]) == (4, 0.0, "left", 0.0)

@@ -79,10 +79,8 @@ class TimedPath:
         index, tau = self._locate(t)
         count = self.path.q.shape[1]
         q, velocity, acceleration = (np.zeros((len(t), count)) for _ in range(3))
-        for number, piece in enumerate(self.pieces):
-            mask = index == number
-            if not np.any(mask):
-                continue
+        for number in np.unique(index):  # only the pieces the times fall in
+            piece, mask = self.pieces[number], index == number
             local = tau[mask]
             u, du, ddu = self.law.s(local), self.law.ds(local), self.law.dds(local)
             first, second = piece.spline(u, 1), piece.spline(u, 2)

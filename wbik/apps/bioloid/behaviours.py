@@ -20,6 +20,7 @@ from wbik.apps.bioloid.gait import (
 )
 from wbik.apps.bioloid.servo import SERVOS, from_servo_units, to_servo
 from wbik.apps.bioloid.step_wholebody import (
+    RAMP_INSET,
     com_over_phase,
     current_soles,
     pelvis_rotation,
@@ -58,20 +59,22 @@ def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters
 
 def both_feet_phases(robot: Robot, soles: dict[str, pin.SE3], after: dict[str, pin.SE3], first: str,
                      gait: GaitParameters, names: list[str], paths: list, rotations: list,
-                     swing_divisions: int, shift_divisions: int) -> list[BodyPhase]:
-    """Five phases moving both feet from ``soles`` to ``after``, ``first`` first: the CoM over the other
-    foot, ``first`` on ``paths[0]``, the CoM over it, the other on ``paths[1]``, the CoM between the feet;
-    ``rotations``: the pelvis's per phase, divisions in units of ``gait.divisions``."""
+                     swing_divisions: int, shift_divisions: int, inset: float = RAMP_INSET
+                     ) -> list[BodyPhase]:
+    """Five phases moving both feet from ``soles`` to ``after``, ``first`` first: the CoM ``inset`` into
+    the other foot, ``first`` on ``paths[0]`` with the CoM held, the CoM ``inset`` into it, the other on
+    ``paths[1]`` with the CoM held, the CoM between the feet; ``rotations``: the pelvis's per phase,
+    divisions in units of ``gait.divisions``."""
     second, n = OTHER[first], gait.divisions
     return [
-        com_over_phase(robot, names[0], {SOLE[s]: soles[s] for s in SIDES}, second, soles[second],
+        com_over_phase(robot, names[0], {SOLE[s]: soles[s] for s in SIDES}, second, soles[second], inset,
                        pelvis_rotation=rotations[0], divisions=n),
         BodyPhase(names[1], {SOLE[second]: soles[second]}, swing={SOLE[first]: paths[0]},
-                  pelvis_rotation=rotations[1], divisions=swing_divisions * n),
+                  pelvis_rotation=rotations[1], com=ComRamp(), divisions=swing_divisions * n),
         com_over_phase(robot, names[2], {SOLE[second]: soles[second], SOLE[first]: after[first]}, first,
-                       after[first], pelvis_rotation=rotations[2], divisions=shift_divisions * n),
+                       after[first], inset, pelvis_rotation=rotations[2], divisions=shift_divisions * n),
         BodyPhase(names[3], {SOLE[first]: after[first]}, swing={SOLE[second]: paths[1]},
-                  pelvis_rotation=rotations[3], divisions=swing_divisions * n),
+                  pelvis_rotation=rotations[3], com=ComRamp(), divisions=swing_divisions * n),
         recentre_phase(robot, after, gait, names[4], rotations[4]),
     ]
 
@@ -141,10 +144,11 @@ def along(soles: dict[str, pin.SE3], side: str) -> float:
 
 
 def half_step_phases(robot: Robot, soles: dict[str, pin.SE3], name: str, gait: GaitParameters | None = None,
-                     length: float | None = None, lift: float = HALF_STEP_LIFT
+                     length: float | None = None, lift: float = HALF_STEP_LIFT, inset: float = RAMP_INSET
                      ) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """Phases of the half step ``name`` (a key of ``HALF_STEPS``) and the soles after it;
-    InvalidConfigurationError when the moved foot is not where the half step starts from."""
+    """Phases of the half step ``name`` (a key of ``HALF_STEPS``) and the soles after it, the CoM ``inset``
+    into the standing sole and held there while the other swings; InvalidConfigurationError when the moved
+    foot is not where the half step starts from."""
     if name not in HALF_STEPS:
         raise InvalidConfigurationError(f"unknown half step {name!r}; known: {', '.join(HALF_STEPS)}")
     gait = gait or GaitParameters()
@@ -175,11 +179,11 @@ def half_step_phases(robot: Robot, soles: dict[str, pin.SE3], name: str, gait: G
     n = gait.divisions
     phases = [
         com_over_phase(robot, f"{name}: CoM over the {SIDE_NAME[stays]} foot",
-                       {SOLE[moved]: start, SOLE[stays]: other}, stays, other,
+                       {SOLE[moved]: start, SOLE[stays]: other}, stays, other, inset,
                        pelvis_rotation=rotation, divisions=n),
         BodyPhase(f"{name}: {SIDE_NAME[moved]} foot {'back' if name.startswith('Back') else 'forward'}",
                   {SOLE[stays]: other}, swing={SOLE[moved]: sole_path(start, end, lift=lift)},
-                  pelvis_rotation=rotation, divisions=2 * n),
+                  pelvis_rotation=rotation, com=ComRamp(), divisions=2 * n),
         BodyPhase(f"{name}: CoM between the feet", {SOLE[moved]: end, SOLE[stays]: other},
                   pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, after)), divisions=n),
     ]

@@ -18,8 +18,9 @@ import pinocchio as pin
 from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang, to_servo
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.walking.footsteps import placed_on, sole_points, sole_polygon
-from wbik.motion.walking.multibody_zmp import limit_excess
+from wbik.motion.walking.multibody_zmp import actuated_joints, limit_excess
 from wbik.motion.walking.static_gait import SampledMotion, actuated_timing, pose_error
+from wbik.motion.walking.zmp_timing import slowed_for_zmp
 from wbik.robot import Robot
 from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
 
@@ -220,13 +221,19 @@ class TimedMotion:
 
 
 def time_scale_motion(motion: SampledMotion, speed_rpm: float | None = 40.0, law: str = "quintic",
-                      mode: str = "segment") -> TimedMotion:
+                      mode: str = "segment", zmp_shift_max: float | None = None) -> TimedMotion:
     """Minimum-duration timing of the servos through every sample at ``speed_rpm`` (None: the URDF's
     limits): ``mode="segment"`` rests at every sample like the code's divisions (inside the joint limits),
-    ``"waypoint"`` at phase ends only (faster; the spline may overshoot a limit between samples)."""
+    ``"waypoint"`` at phase ends only (faster; the spline may overshoot a limit between samples);
+    ``zmp_shift_max`` (m): each piece slowed until the multibody ZMP stays that close to the CoM's ground
+    projection (:mod:`wbik.motion.walking.zmp_timing`)."""
     if speed_rpm is not None and not speed_rpm > 0:
         raise InvalidConfigurationError(f"speed_rpm must be positive, got {speed_rpm}")
-    timed = actuated_timing(motion.robot.model, motion.q, speed_rpm, mode, motion.phase_end_samples(), law)
+    model = motion.robot.model
+    timed = actuated_timing(model, motion.q, speed_rpm, mode, motion.phase_end_samples(), law)
+    if zmp_shift_max is not None:
+        columns = [model.joints[j].idx_q for j in actuated_joints(model)]
+        timed = slowed_for_zmp(motion.robot, motion.q, motion.support, timed, columns, zmp_shift_max)
     return TimedMotion(motion, timed, timed.velocity_limit)
 
 

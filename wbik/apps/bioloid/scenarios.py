@@ -3,6 +3,8 @@ the file's ``expect`` (a whole-body behaviour by default against its generator's
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from wbik.apps.bioloid.behaviours import HALF_STEPS, half_step_phases, replay_keyframes, turn_in_place, walk
@@ -34,7 +36,8 @@ from wbik.viz.animation import Animation, Overlays
 
 VELOCITY_TOLERANCE = 1e-9
 FAITHFUL_SAMPLE_S = 0.2  # s between two samples of the faithful step's animation (it is not timed)
-SIMULATED_SAMPLE_TICKS = 5  # physics ticks between two samples of the simulated stairs' animation
+SIMULATED_SAMPLE_TICKS = 5  # physics ticks between two samples of the simulated stairs' animation, at least
+SIMULATED_FRAMES_MAX = 1000  # samples of the simulated stairs' animation, at most (the page's size)
 
 # the faithful step: the mismatch a non-closed chain shows, CoM margin, lifted sole above the floor, limits
 FAITHFUL_RULES = {
@@ -99,7 +102,8 @@ class _Behaviours(KindRun):
 
 def _timed(spec: dict, motion) -> TimedMotion:
     timing = spec["timing"]
-    return time_scale_motion(motion, timing["speed_rpm"], timing["law"], timing["mode"])
+    return time_scale_motion(motion, timing["speed_rpm"], timing["law"], timing["mode"],
+                             timing["zmp_shift_max_m"])
 
 
 def _final_soles(robot, q: np.ndarray) -> dict:
@@ -232,7 +236,8 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     run = _Behaviours(spec, on_progress)
     margin = run.margin
     stairs = Staircase(**spec["stairs"])
-    climb = simulate_stairs(run.robot, stairs, run.gait, margin, spec["climbs"], backend=spec["backend"])
+    climb = simulate_stairs(run.robot, stairs, run.gait, margin, spec["climbs"], backend=spec["backend"],
+                            com_inset=spec["com_inset"])
     summary = climb.summary()
     timed = _timed(spec, climb.motion)
     size = f"{stairs.height * 1e3:g} mm x {stairs.depth * 1e3:g} mm"
@@ -249,7 +254,8 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     if spec["physics"] is not None:  # in MuJoCo too: standing, the CoP `margin` inside the soles pressed
         given = spec["physics"]
         settings = PhysicsSettings(Servos(**given["servos"]), timestep=given["timestep"],
-                                   friction=given["friction"], settle_s=given["settle_s"])
+                                   friction=given["friction"], settle_s=given["settle_s"],
+                                   contact_time_constant=given["contact_time_constant"])
         entry["physics"], simulated = stairs_physics(climb, timed, settings)
         wanted = {"physics_fell": False, "physics_cop_margin_min_m": margin, **wanted}
         judged.update(physics_fell=entry["physics"]["fell"],
@@ -257,7 +263,8 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     animation = _motion_animation(climb.motion, timed.sample_times, "bioloid stairs", trace_frame="pelvis")
     if simulated is not None and simulated.configurations:
         played = simulated_animation(animation, simulated, "simulated, open loop")
-        animation = animation.then(played.subsampled(SIMULATED_SAMPLE_TICKS))
+        every = max(SIMULATED_SAMPLE_TICKS, math.ceil(played.frames / SIMULATED_FRAMES_MAX))
+        animation = animation.then(played.subsampled(every))
     run.add(judge(entry, wanted, judged, STAIR_RULES, "expect"),
             animation.with_environment(climb.scene_boxes()))
     return run.finished()
@@ -320,7 +327,9 @@ def bioloid_schema(kind: str) -> Map:
     timed = {"timing": Key(Map({"speed_rpm": Key(Number(gt=0, nullable=True, unit="rpm"),
                                                  default_of(time_scale_motion, "speed_rpm")),
                                 "law": Key(Text(time_laws), default_of(time_scale_motion, "law")),
-                                "mode": Key(Text(timing_modes), default_of(time_scale_motion, "mode"))},
+                                "mode": Key(Text(timing_modes), default_of(time_scale_motion, "mode")),
+                                "zmp_shift_max_m": Key(Number(gt=0, nullable=True, unit="m"),
+                                                       default_of(time_scale_motion, "zmp_shift_max"))},
                                nullable=True), {}),
              "export": Key(Map({"servo_csv": Key(Text(what="a file path", nullable=True)),
                                 "dt": Key(Number(gt=0, unit="s"), default_of(TimedMotion.servo_table, "dt"))},
@@ -363,6 +372,9 @@ def bioloid_schema(kind: str) -> Map:
                 "stairs": Key(Map(from_dataclass(Staircase, {"descend": Boolean()}).keys, nullable=True), {}),
                 "climbs": Key(Number(ge=1, integer=True, nullable=True),
                               default_of(simulate_stairs, "climbs")),
+                "com_inset": Key(Number(ge=0, unit="m"), default_of(simulate_stairs, "com_inset"),
+                                 doc="UpStair and DownStair move the CoM this far into a sole before the "
+                                     "other lifts"),
                 "physics": Key(Map(physics_keys(), nullable=True), None,
                                doc="the run in MuJoCo on the staircase's boxes, open loop"),
                 "expect": Key(expect_block(STAIR_RULES), None)}

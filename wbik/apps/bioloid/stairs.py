@@ -47,6 +47,7 @@ STEP_CLEARANCE = 0.015  # m, a sole changing level passes this high above the hi
 DOWN_HEEL_GAP = 0.010  # m, DownStair puts the heel this far past the riser below the nose
 DOWN_READY_OVERHANG = 0.015  # m, before DownStair StairReady brings the toes this far over the nose
 MIN_FOOTHOLD = 0.05  # m, a sole over a nose stands on at least this much of its length
+COM_INSET = 0.025  # m, a step moves the CoM this far into the sole it will stand on (half steps too)
 SURFACE_TOLERANCE = 1e-6  # m, a sole corner this close to the surface under it touches it
 WALK_CYCLE = ("WalkSR1", "WalkSR2", "WalkSL1", "WalkSL2")
 PAIR_END = {"WalkSR1": "WalkSR2", "WalkSL1": "WalkSL2"}
@@ -252,11 +253,12 @@ def _moved(placement: pin.SE3, x: float | None = None, z: float | None = None) -
 
 
 def stair_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, step: int, first: str,
-                 gait: GaitParameters | None = None, down: bool = False
+                 gait: GaitParameters | None = None, down: bool = False, com_inset: float = COM_INSET
                  ) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
     """UpStair onto step ``step`` (heels ``HEEL_OVERHANG`` past its edge) or, ``down``, DownStair from it
     (heels ``DOWN_HEEL_GAP`` past the riser below), ``first`` foot first, each swung ``STEP_CLEARANCE``
-    above the higher tread; the phases and the new soles."""
+    above the higher tread, the CoM ``com_inset`` into a sole before the other lifts; the phases and the
+    new soles."""
     if down:
         landing_x, z_new = stairs.far_x(step) + DOWN_HEEL_GAP + 0.05, stairs.tread_z(step - 1)
         label, surface = f"DownStair {step}", "the floor" if step == 1 else f"tread {step - 1}"
@@ -274,7 +276,7 @@ def stair_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, ste
              f"{label}: {SIDE_NAME[second]} foot onto {surface}", f"{label}: CoM between the feet"]
     paths = [polyline_path([soles[s], _moved(soles[s], z=over), _moved(after[s], z=over), after[s]])
              for s in (first, second)]
-    phases = both_feet_phases(robot, soles, after, first, gait, names, paths, [rotation] * 5, 3, 2)
+    phases = both_feet_phases(robot, soles, after, first, gait, names, paths, [rotation] * 5, 3, 2, com_inset)
     return phases, after
 
 
@@ -293,8 +295,9 @@ class StairRun:
     """A simulated run (:func:`simulate_stairs`): one record per sample, the states, the reads, the motion."""
 
     def __init__(self, robot: Robot, stairs: Staircase, gait: GaitParameters, margin: float, backend: str,
-                 climbs: int, q0: np.ndarray):
+                 climbs: int, q0: np.ndarray, com_inset: float = COM_INSET):
         self.robot, self.stairs, self.gait, self.margin, self.backend = robot, stairs, gait, margin, backend
+        self.com_inset = com_inset
         self.machine = StairStateMachine(climbs=climbs)
         self.descended = 0
         self.q = q0.copy()
@@ -395,7 +398,8 @@ class StairRun:
         return entry
 
     def half(self, name: str, length: float | None = None) -> None:
-        phases, after = half_step_phases(self.robot, self.soles(), name, self.gait, length)
+        phases, after = half_step_phases(self.robot, self.soles(), name, self.gait, length,
+                                         inset=self.com_inset)
         self.solve(name, phases, after)
 
     def stair_ready(self, cycle: int, down: bool) -> bool:
@@ -466,14 +470,16 @@ def _leading_foot(cycle: int) -> str:
 
 def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitParameters | None = None,
                     margin: float = 0.005, climbs: int | None = None, q0: np.ndarray | None = None,
-                    max_decisions: int = STEP_QTY, backend: str = DEFAULT_BACKEND) -> StairRun:
+                    max_decisions: int = STEP_QTY, backend: str = DEFAULT_BACKEND,
+                    com_inset: float = COM_INSET) -> StairRun:
     """Half steps toward the staircase, climbing (and with ``descend`` going down) as the state machine
-    decides after each, until done or ``max_decisions`` reads; StairError when a foot would hit a riser."""
+    decides after each, until done or ``max_decisions`` reads; StairError when a foot would hit a riser.
+    ``com_inset``: see :func:`stair_phases`."""
     stairs = stairs or Staircase()
     gait = gait or GaitParameters()
     climbs = stairs.steps if climbs is None else int(climbs)
     descents = stairs.steps if stairs.descend and climbs == stairs.steps else 0
-    run = StairRun(robot, stairs, gait, margin, backend, climbs, start_q(robot, q0))
+    run = StairRun(robot, stairs, gait, margin, backend, climbs, start_q(robot, q0), com_inset)
     cycle = 0
     for _ in range(max_decisions):
         if run.climbed >= climbs and run.descended >= descents:
@@ -495,7 +501,8 @@ def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitPar
             level = stairs.step_at(heel + 1e-6)
             if run.stair_ready(cycle, down=True):
                 cycle += 2
-            phases, after = stair_phases(robot, run.soles(), stairs, level, _leading_foot(cycle), gait, True)
+            phases, after = stair_phases(robot, run.soles(), stairs, level, _leading_foot(cycle), gait, True,
+                                         com_inset)
             run.solve("DownStair", phases, after)
             run.descended += 1
             run.machine.descended()
@@ -514,7 +521,8 @@ def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitPar
                 run.solve("RightTurnMedium" if side == "right" else "LeftTurnMedium", phases, after)
             run.stair_ready(cycle, down=False)
             step = run.climbed + 1
-            phases, after = stair_phases(robot, run.soles(), stairs, step, _leading_foot(cycle), gait)
+            phases, after = stair_phases(robot, run.soles(), stairs, step, _leading_foot(cycle), gait,
+                                         com_inset=com_inset)
             run.solve("UpStair", phases, after)
             run.machine.climbed()
             run.read("UpStair")

@@ -1,6 +1,7 @@
 """The stair run in MuJoCo (:mod:`wbik.motion.walking.physics`): the staircase's steps as solid boxes, the
 planned motion timed as the stairs report times it (:func:`time_scale_motion`) played open loop, one servo
-target per ``TICK_S``; the CoP margin per behaviour run (a half step, UpStair 2, DownStair 1, ...)."""
+target per ``TICK_S`` led by the planned joint torques over kp (``torque_feedforward``); the CoP margin per
+behaviour run (a half step, UpStair 2, DownStair 1, ...)."""
 
 from __future__ import annotations
 
@@ -13,8 +14,10 @@ import numpy as np
 from wbik.apps.bioloid.gait import TimedMotion
 from wbik.apps.bioloid.stairs import StairRun
 from wbik.motion.walking.multibody_zmp import actuated_joints
-from wbik.motion.walking.physics import Measured, Simulation
+from wbik.motion.walking.physics import Measured, Simulation, servo_joints
+from wbik.motion.walking.planned_torques import support_torques
 from wbik.motion.walking.stabiliser import PhysicsSettings
+from wbik.motion.walking.zmp_timing import stance_placed, stance_sole
 
 TICK_S = 0.01  # s between two servo targets
 HELD = "held at the end"  # the label of the ticks after the motion (``settle_s``)
@@ -31,16 +34,18 @@ def stairs_physics(run: StairRun, timed: TimedMotion, settings: PhysicsSettings)
     tick by tick."""
     robot, motion = run.robot, timed.motion
     sim = Simulation(robot, settings.servos, motion.q[0], 0.0, settings.timestep, settings.friction,
-                     run.stairs.boxes())
+                     run.stairs.boxes(), settings.contact_time_constant)
     columns = [robot.model.joints[j].idx_q for j in actuated_joints(robot.model)]
     ticks = TICK_S * np.arange(1, int(math.ceil((timed.duration + settings.settle_s) / TICK_S)) + 1)
     angles, _ = timed.evaluate(np.minimum(ticks, timed.duration))
-    measured, q = Measured(), motion.q[0].copy()
-    for row in angles:
-        q[columns] = row
-        if not sim.run(q, TICK_S, measured):
-            break
     knots = timed.sample_times
+    lead = (_lead(robot, motion, knots, ticks, angles, columns, settings) if settings.torque_feedforward
+            else None)
+    measured, q = Measured(), motion.q[0].copy()
+    for k, row in enumerate(angles):
+        q[columns] = row
+        if not sim.run(q, TICK_S, measured, None if lead is None else lead[k]):
+            break
     labels = [behaviour_of(sample) for sample in run.samples]
     margins = np.asarray(measured.margins, dtype=float)
     sample_of = np.searchsorted(knots, np.asarray(measured.times) - 1e-9)  # a tick ending in (t_k-1, t_k]
@@ -63,3 +68,20 @@ def stairs_physics(run: StairRun, timed: TimedMotion, settings: PhysicsSettings)
             "simulated_s": float(sim.time), "planned_s": timed.duration, "tick_s": TICK_S,
             "servos": asdict(settings.servos), "timestep_s": settings.timestep, "friction": settings.friction,
             "mass_kg": sim.mass}, measured
+
+
+def _lead(robot, motion, knots: np.ndarray, ticks: np.ndarray, angles: np.ndarray, columns: list[int],
+          settings: PhysicsSettings) -> np.ndarray:
+    """The servos' targets' lead tau / kp at each tick: the planned motion's joint torques, the body carried
+    by the sole(s) the tick's samples stand on (the load shared by where the CoM is over them)."""
+    data = robot.model.createData()
+    sample = np.clip(np.searchsorted(knots, np.minimum(ticks, knots[-1]) - 1e-9), 1, len(motion.q) - 1)
+    soles = [stance_sole(motion.support, i) for i in sample]
+    qs = np.array([stance_placed(robot, motion.q[i], sole, row, columns, data)
+                   for i, sole, row in zip(sample, soles, angles, strict=True)])
+    support = [tuple(s for s in motion.support[i] if s in motion.support[i - 1]) or (sole,)
+               for i, sole in zip(sample, soles, strict=True)]
+    load = [robot.center_of_mass(q)[:2] for q in qs]
+    torques = support_torques(robot.model, qs, TICK_S, support, load, servo_joints(robot),
+                              settings.servos.armature)
+    return torques / settings.servos.kp

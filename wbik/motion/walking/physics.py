@@ -113,10 +113,12 @@ class Simulation:
 
     def __init__(self, robot: Robot, servos: Servos, q: np.ndarray, ground_z: float = 0.0,
                  timestep: float = 0.001, friction: float = 1.0,
-                 boxes: Sequence[tuple[np.ndarray, np.ndarray]] = ()):
+                 boxes: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+                 contact_time_constant: float | None = None):
         _, mujoco = import_mink("the walk's physics")
         self.mujoco, self.robot, self.servos, self.ground_z = mujoco, robot, servos, float(ground_z)
         self.boxes = [(np.asarray(low, dtype=float), np.asarray(high, dtype=float)) for low, high in boxes]
+        self._box_bounds = [(*low[:2].tolist(), *high.tolist()) for low, high in self.boxes]
         model = robot.model
         self.joints = servo_joints(robot)
         warnings: list[str] = []
@@ -124,6 +126,12 @@ class Simulation:
             self.body = self._scene(timestep, friction)
         self.body.warnings = tuple(warnings)
         self.model, self.data = self.body.model, mujoco.MjData(self.body.model)
+        if contact_time_constant is not None:  # every contact as stiff (MuJoCo's solref[0], default 0.02 s)
+            if not contact_time_constant >= 2.0 * timestep:
+                raise InvalidSettingError(
+                    f"a contact time constant of {contact_time_constant} s is under two physics timesteps "
+                    f"({timestep} s): MuJoCo's contacts would not be stable; raise it or lower the timestep")
+            self.model.geom_solref[:, 0] = contact_time_constant
         self.target_index = np.array([model.joints[j].idx_q for j in self.joints], dtype=int)
         named, kinds = mujoco.mj_name2id, mujoco.mjtObj
         self.sole_geoms = {named(self.model, kinds.mjOBJ_GEOM, f"sole:{sole}"): sole for sole in robot.soles}
@@ -197,9 +205,12 @@ class Simulation:
 
     def com_height(self) -> float:
         """Height (m) of the CoM above the ground under it (the floor or the highest box there)."""
-        com = self.data.subtree_com[0]
-        tops = [high[2] for low, high in self.boxes if np.all((low[:2] <= com[:2]) & (com[:2] <= high[:2]))]
-        return float(com[2] - max([self.ground_z, *tops]))
+        x, y, z = self.data.subtree_com[0].tolist()
+        ground = self.ground_z
+        for x_low, y_low, x_high, y_high, top in self._box_bounds:  # Python floats: a few boxes, every step
+            if x_low <= x <= x_high and y_low <= y <= y_high and top > ground:
+                ground = top
+        return z - ground
 
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) in wbik's conventions (the base's velocity in its own frame, as Pinocchio's)."""
@@ -216,15 +227,18 @@ class Simulation:
         """(sum of the soles' normal forces f_n (N), sum f_n r (x, y), the soles pressed)."""
         mujoco, data = self.mujoco, self.data
         total, moment, soles = 0.0, np.zeros(2), set()
+        if data.ncon == 0:
+            return total, moment, soles
+        contacts = data.contact  # the fields as arrays: one view each, not one struct per contact
+        first, second, points = contacts.geom1.tolist(), contacts.geom2.tolist(), contacts.pos
         for i in range(data.ncon):
-            contact = data.contact[i]
-            sole = self.sole_geoms.get(contact.geom1) or self.sole_geoms.get(contact.geom2)
+            sole = self.sole_geoms.get(first[i]) or self.sole_geoms.get(second[i])
             if sole is None:
                 continue
             mujoco.mj_contactForce(self.model, data, i, self._force)
             if self._force[0] > 0:
                 total += self._force[0]
-                moment += self._force[0] * contact.pos[:2]
+                moment += self._force[0] * points[i, :2]
                 soles.add(sole)
         return total, moment, soles
 

@@ -127,7 +127,7 @@ def players(motion: WalkMotion, new_tracker: Callable[[], Tracker], q0, settings
 
     def scene(q_start, push: Push | None) -> Simulation:
         sim = Simulation(pattern.robot, settings.servos, q_start, pattern.ground_z, settings.timestep,
-                         settings.friction)
+                         settings.friction, contact_time_constant=settings.contact_time_constant)
         sim.push = push
         return sim
 

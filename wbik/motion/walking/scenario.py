@@ -155,7 +155,7 @@ def _physics_settings(given: dict) -> PhysicsSettings:
     return PhysicsSettings(Servos(**given["servos"]), StabiliserGains(**given["stabiliser"]),
                            given["timestep"], given["friction"], given["settle_s"],
                            given["torque_feedforward"],
-                           None if steps is None else StepAdaptation(**steps))
+                           None if steps is None else StepAdaptation(**steps), given["contact_time_constant"])
 
 
 def _in_physics(spec: dict, motion, q0, feet: Feet, settings: TrackingSettings, solved: dict
@@ -308,7 +308,7 @@ def _line(label: str, figures: dict) -> str:
 # -- the schema ------------------------------------------------------------------------------------
 def physics_keys() -> dict[str, Key]:
     """The keys of a ``physics`` block every scene shares: ``servos`` (:class:`Servos`), ``timestep``,
-    ``friction``, ``settle_s`` (:class:`PhysicsSettings`)."""
+    ``friction``, ``settle_s``, ``contact_time_constant`` (:class:`PhysicsSettings`)."""
     servos = from_dataclass(Servos, {
         "kp": Number(gt=0, unit="N m/rad"), "kv": Number(ge=0, unit="N m s/rad"),
         "damping": Number(ge=0, unit="N m s/rad"), "torque_limit": Number(gt=0, nullable=True, unit="N m"),
@@ -316,7 +316,8 @@ def physics_keys() -> dict[str, Key]:
     return {"servos": Key(servos, required=True),
             **{name: Key(node, getattr(PhysicsSettings(Servos(1.0)), name)) for name, node in (
                 ("timestep", Number(gt=0, le=0.01, unit="s")), ("friction", Number(gt=0)),
-                ("settle_s", Number(ge=0, unit="s")))}}
+                ("settle_s", Number(ge=0, unit="s")),
+                ("contact_time_constant", Number(gt=0, nullable=True, unit="s")))}}
 
 
 def walk_schema() -> Map:

@@ -46,7 +46,8 @@ class PhysicsSettings:
     """The walk in physics: ``servos``, the stabiliser's ``gains``, the physics ``timestep`` (s), the floor's
     ``friction``, ``settle_s`` (s) the last command held after the walk, ``torque_feedforward``: the servos'
     targets led by the planned joint torques over kp, ``step_adaptation``: the closed loop moves the steps
-    (:mod:`wbik.motion.walking.step_adaptation`; None: the steps as planned)."""
+    (:mod:`wbik.motion.walking.step_adaptation`; None: the steps as planned), ``contact_time_constant``
+    (s): how stiff every contact is (MuJoCo's solref time constant; None: MuJoCo's 0.02 s)."""
 
     servos: Servos
     gains: StabiliserGains = StabiliserGains()
@@ -55,6 +56,7 @@ class PhysicsSettings:
     settle_s: float = 1.0
     torque_feedforward: bool = True
     step_adaptation: StepAdaptation | None = None
+    contact_time_constant: float | None = None
 
 
 class Stabiliser:
@@ -148,7 +150,7 @@ def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray,
 
     def scene() -> Simulation:
         return Simulation(pattern.robot, settings.servos, motion.q[0], pattern.ground_z, settings.timestep,
-                          settings.friction)
+                          settings.friction, contact_time_constant=settings.contact_time_constant)
 
     def figures(sim: Simulation, measured: Measured) -> dict:
         travel = sim.state()[0][:2] - motion.q[0][:2]

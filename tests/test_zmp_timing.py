@@ -1,0 +1,107 @@
+"""A quasi-static motion timed to stay quasi-static (:mod:`wbik.motion.walking.zmp_timing`): after the
+slowing, the multibody ZMP of the timed motion (recomputed here on a finer grid with
+:func:`multibody_zmp`, from the configurations the stance sole carries) stays within the bound of the
+CoM's projection; each piece is slowed no more than one grid step beyond what the bound needs; bad
+bounds are refused; the stairs' physics leads its servos by the torques of that motion."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbik
+from wbik.apps.bioloid.behaviours import half_step_sequence
+from wbik.apps.bioloid.gait import time_scale_motion
+from wbik.errors import InvalidConfigurationError, InvalidSettingError
+from wbik.motion.walking import zmp_timing
+from wbik.motion.walking.multibody_zmp import actuated_joints, multibody_zmp, trajectory_derivatives
+from wbik.motion.walking.physics import Servos, Simulation
+
+FINE = 60  # intervals per piece of the independent check (the module uses zmp_timing.GRID)
+
+
+@pytest.fixture(scope="module")
+def half_steps():
+    robot = wbik.load("bioloid")
+    return robot, half_step_sequence(robot, ["WalkSR1", "WalkSR2"]).motion
+
+
+def _shift(robot, motion, timed, piece, intervals: int, skip: int = 2) -> float:
+    """The largest |ZMP - CoM_xy| over the points of ``piece`` as ``timed`` times it, ``skip`` left out at
+    each end (where the differences are one-sided or the piece rests)."""
+    model, data = robot.model, robot.model.createData()
+    columns = [model.joints[j].idx_q for j in actuated_joints(model)]
+    sole = zmp_timing.stance_sole(motion.support, piece.last)
+    times = piece.start + piece.duration * np.linspace(0.0, 1.0, intervals + 1)
+    joints, _, _ = timed.evaluate(times)
+    qs = np.array([zmp_timing.stance_placed(robot, motion.q[piece.last], sole, row, columns, data)
+                   for row in joints])
+    for q in qs:  # the stance sole stays where the sample has it
+        assert robot.frame_placement(q, sole).isApprox(robot.frame_placement(motion.q[piece.last], sole), 1e-9)
+    velocity, acceleration = trajectory_derivatives(model, qs, piece.duration / intervals)
+    ground = robot.frame_placement(qs[0], sole).translation[2]
+    zmp = multibody_zmp(model, qs, velocity, acceleration, ground)
+    com = np.array([robot.center_of_mass(q)[:2] for q in qs])
+    return float(np.max(np.linalg.norm(zmp[skip:-skip] - com[skip:-skip], axis=1)))
+
+
+def test_slowed_pieces_keep_the_zmp_near_the_com(half_steps):
+    robot, motion = half_steps
+    bound = 0.004
+    fast = time_scale_motion(motion, 40.0)
+    slow = time_scale_motion(motion, 40.0, zmp_shift_max=bound)
+    assert slow.duration > fast.duration
+    np.testing.assert_allclose(np.diff(slow.sample_times) >= 0, True)
+    slowed = 0
+    for before, after in zip(fast.timed.pieces, slow.timed.pieces, strict=True):
+        assert after.duration >= before.duration
+        if after.duration == 0:
+            continue
+        shift = _shift(robot, motion, slow.timed, after, FINE)
+        assert shift <= bound * 1.03, (after.first, shift)  # a finer grid than the module's: 3 % spare
+        if after.duration > before.duration:
+            slowed += 1
+            # one grid step faster breaks the bound (the slowing is the least of its grid)
+            quicker = pin_piece(slow.timed, after, after.duration / zmp_timing.GROWTH ** 2)
+            assert _shift(robot, motion, quicker, quicker.pieces[0], zmp_timing.GRID, 1) > bound
+        else:
+            assert _shift(robot, motion, fast.timed, before, zmp_timing.GRID, 1) <= bound * 1.03
+    assert slowed >= 5
+    # the joints pass the same samples: only the clock changed
+    q_fast, _, _ = fast.timed.evaluate(fast.sample_times)
+    q_slow, _, _ = slow.timed.evaluate(slow.sample_times)
+    np.testing.assert_allclose(q_slow, q_fast, atol=1e-12)
+
+
+def pin_piece(timed, piece, duration: float):
+    """``timed`` reduced to ``piece`` alone, lasting ``duration``."""
+    from dataclasses import replace
+
+    from wbik.motion.timing import Piece
+
+    moved = Piece(piece.first, piece.last, 0.0, duration, piece.spline)
+    knots = np.array(timed.knot_times, dtype=float)
+    span = slice(piece.first, piece.last + 1)
+    knots[span] = (knots[span] - piece.start) * duration / piece.duration
+    return replace(timed, pieces=[moved], knot_times=knots, duration=duration)
+
+
+@pytest.mark.parametrize("bound", [0.0, -0.01, math.nan])
+def test_a_bound_that_is_not_positive_is_refused(half_steps, bound):
+    robot, motion = half_steps
+    with pytest.raises(InvalidConfigurationError, match="must be positive"):
+        time_scale_motion(motion, 40.0, zmp_shift_max=bound)
+
+
+def test_a_contact_time_constant_under_two_timesteps_is_refused_and_one_above_is_applied():
+    robot = wbik.load("bioloid")
+    servos = Servos(37.05, damping=0.243, torque_limit=1.5, armature=1e-3)
+    with pytest.raises(InvalidSettingError, match="under two physics timesteps"):
+        Simulation(robot, servos, robot.nominal, timestep=0.001, contact_time_constant=0.0015)
+    sim = Simulation(robot, servos, robot.nominal, timestep=0.001, contact_time_constant=0.004)
+    assert np.all(sim.model.geom_solref[:, 0] == 0.004)
+    default = Simulation(robot, servos, robot.nominal, timestep=0.001)
+    assert np.all(default.model.geom_solref[:, 0] == 0.02)  # MuJoCo's own

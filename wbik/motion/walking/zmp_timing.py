@@ -1,0 +1,102 @@
+"""A quasi-static motion timed so that it stays quasi-static: every rest-to-rest piece of a sampled motion's
+timing is slowed until the multibody ZMP stays within ``shift_max`` of the CoM's ground projection.
+
+Slowing a rest-to-rest piece by a factor k keeps its path and divides every velocity by k and every
+acceleration (q'' and the q'^2 terms alike) by k^2, so the centroidal wrench is f = -m g + F / k^2,
+n = N / k^2 (F, N: the rates of linear and angular momentum about the CoM at k = 1). The ZMP's shift
+from the CoM's projection is then ((h F_x + N_y), (h F_y - N_x)) / (k^2 (m g + F_z / k^2)), h the CoM's
+height over the stance sole: each piece gets the least k of a geometric grid keeping it within
+``shift_max`` (and the ground's push above a fifth of the weight) at every grid point of the piece.
+
+The floating base between samples is where the stance sole (the sole the two samples stand on) keeps its
+pose, as the servos would carry the body."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import InvalidConfigurationError
+from wbik.motion.timing import Piece, TimedPath
+from wbik.motion.walking.multibody_zmp import trajectory_derivatives
+from wbik.robot import Robot
+
+GRID = 24  # intervals of the time grid on which a piece's ZMP is checked
+GROWTH = 1.02  # the ratio between two slowing factors tried
+LEAST_PUSH = 0.2  # the ground's push must stay above this share of the weight
+
+
+def stance_sole(support: Sequence[Sequence[str]], sample: int) -> str:
+    """The sole the motion stands on from sample ``sample - 1`` to ``sample``: one both samples list."""
+    both = [sole for sole in support[sample] if sole in support[max(sample - 1, 0)]]
+    return sorted(both or support[sample])[0]
+
+
+def stance_placed(robot: Robot, sampled_q: np.ndarray, sole: str, joints: np.ndarray, columns: Sequence[int],
+                  data: pin.Data) -> np.ndarray:
+    """The configuration with the 1-DOF ``joints`` (in ``columns`` of q) and the floating base placed so
+    that ``sole`` is where it is in ``sampled_q``."""
+    model, frame = robot.model, robot.frame_id(sole)
+    pin.framesForwardKinematics(model, data, sampled_q)
+    wanted = data.oMf[frame].copy()
+    q = sampled_q.copy()
+    q[list(columns)] = joints
+    pin.framesForwardKinematics(model, data, q)
+    base = wanted * data.oMf[frame].inverse() * pin.XYZQUATToSE3(q[:7])
+    q[:7] = pin.SE3ToXYZQUAT(base)
+    return q
+
+
+def slowed_for_zmp(robot: Robot, q: np.ndarray, support: Sequence[Sequence[str]], timed: TimedPath,
+                   columns: Sequence[int], shift_max: float) -> TimedPath:
+    """``timed`` (the 1-DOF joints, in ``columns`` of the samples ``q``) with every rest-to-rest piece
+    slowed as the module says; a piece already slow enough keeps its duration."""
+    if not shift_max > 0:
+        raise InvalidConfigurationError(f"the ZMP shift bound must be positive, got {shift_max}")
+    if not robot.has_floating_base:
+        raise InvalidConfigurationError(f"{robot.name!r} has no floating base to keep a sole still")
+    model, data = robot.model, robot.model.createData()
+    weight = pin.computeTotalMass(model) * float(np.linalg.norm(model.gravity.linear))
+    pieces, knot_times, clock = [], np.array(timed.knot_times, dtype=float), 0.0
+    for piece in timed.pieces:
+        factor = 1.0
+        if piece.duration > 0:
+            factor = _slowing(robot, q, support, timed, piece, columns, shift_max, weight, data)
+        duration = piece.duration * factor
+        span = slice(piece.first, piece.last + 1)
+        knot_times[span] = clock + (timed.knot_times[span] - piece.start) * factor
+        pieces.append(Piece(piece.first, piece.last, clock, duration, piece.spline))
+        clock += duration
+    return replace(timed, pieces=pieces, knot_times=knot_times, duration=clock)
+
+
+def _slowing(robot: Robot, q: np.ndarray, support, timed: TimedPath, piece: Piece, columns, shift_max: float,
+             weight: float, data: pin.Data) -> float:
+    """The least factor of the grid 1, GROWTH, GROWTH^2, ... keeping the piece's ZMP within ``shift_max``."""
+    model = robot.model
+    sole = stance_sole(support, piece.last)
+    times = piece.start + piece.duration * np.linspace(0.0, 1.0, GRID + 1)
+    joints, _, _ = timed.evaluate(times)
+    configurations = np.array([stance_placed(robot, q[piece.last], sole, row, columns, data)
+                               for row in joints])
+    velocity, acceleration = trajectory_derivatives(model, configurations, piece.duration / GRID)
+    pin.framesForwardKinematics(model, data, configurations[0])
+    ground = data.oMf[robot.frame_id(sole)].translation[2]
+    rates = []
+    for k in range(1, GRID):  # the ends rest: their one-sided differences are left out
+        pin.computeCentroidalMomentumTimeVariation(model, data, configurations[k], velocity[k],
+                                                   acceleration[k])
+        rates.append((*data.dhg.linear, *data.dhg.angular, data.com[0][2] - ground))
+    force_x, force_y, force_z, moment_x, moment_y, _, height = np.array(rates).T
+    factor = 1.0
+    while True:
+        squared = factor * factor
+        push = weight + force_z / squared
+        if np.all(push > LEAST_PUSH * weight):
+            shift = np.hypot(height * force_x + moment_y, height * force_y - moment_x) / (squared * push)
+            if np.max(shift) <= shift_max:
+                return factor
+        factor *= GROWTH
