@@ -63,10 +63,11 @@ def stairs_physics(run: StairRun, timed: TimedMotion, settings: PhysicsSettings)
             "base_error_m": float(np.linalg.norm(measured.configurations[last][:2] - planned[:2]))})
         start += count
     final, _ = sim.state()
-    return {**measured.figures(), "per_behaviour": per_behaviour,
+    return {**measured.figures(), "push_impulse_n_s": 0.0, "per_behaviour": per_behaviour,
             "final_base_error_m": float(np.linalg.norm(final[:3] - motion.q[-1][:3])),
             "simulated_s": float(sim.time), "planned_s": timed.duration, "tick_s": TICK_S,
             "servos": asdict(settings.servos), "timestep_s": settings.timestep, "friction": settings.friction,
+            "contact_time_constant_s": settings.contact_time_constant,
             "mass_kg": sim.mass}, measured
 
 
