@@ -7,9 +7,9 @@ bounds are refused; the stairs' physics leads its servos by the torques of that 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
-import pinocchio as pin
 import pytest
 
 import wbik
@@ -18,6 +18,7 @@ from wbik.apps.bioloid.gait import time_scale_motion
 from wbik.errors import InvalidConfigurationError, InvalidSettingError
 from wbik.motion.walking import zmp_timing
 from wbik.motion.walking.multibody_zmp import actuated_joints, multibody_zmp, trajectory_derivatives
+from wbik.motion.timing import Piece
 from wbik.motion.walking.physics import Servos, Simulation
 
 FINE = 60  # intervals per piece of the independent check (the module uses zmp_timing.GRID)
@@ -78,10 +79,6 @@ def test_slowed_pieces_keep_the_zmp_near_the_com(half_steps):
 
 def pin_piece(timed, piece, duration: float):
     """``timed`` reduced to ``piece`` alone, lasting ``duration``."""
-    from dataclasses import replace
-
-    from wbik.motion.timing import Piece
-
     moved = Piece(piece.first, piece.last, 0.0, duration, piece.spline)
     knots = np.array(timed.knot_times, dtype=float)
     span = slice(piece.first, piece.last + 1)
