@@ -16,9 +16,9 @@ import wbik
 from wbik.apps.bioloid.behaviours import half_step_sequence
 from wbik.apps.bioloid.gait import time_scale_motion
 from wbik.errors import InvalidConfigurationError, InvalidSettingError
+from wbik.motion.timing import Piece
 from wbik.motion.walking import zmp_timing
 from wbik.motion.walking.multibody_zmp import actuated_joints, multibody_zmp, trajectory_derivatives
-from wbik.motion.timing import Piece
 from wbik.motion.walking.physics import Servos, Simulation
 
 FINE = 60  # intervals per piece of the independent check (the module uses zmp_timing.GRID)
