@@ -2,7 +2,7 @@
 slowing, the multibody ZMP of the timed motion (recomputed here on a finer grid with
 :func:`multibody_zmp`, from the configurations the stance sole carries) stays within the bound of the
 CoM's projection; each piece is slowed no more than one grid step beyond what the bound needs; bad
-bounds are refused; the stairs' physics leads its servos by the torques of that motion."""
+bounds are refused; a contact time constant MuJoCo cannot keep stable is refused."""
 
 from __future__ import annotations
 
@@ -40,8 +40,9 @@ def _shift(robot, motion, timed, piece, intervals: int, skip: int = 2) -> float:
     joints, _, _ = timed.evaluate(times)
     qs = np.array([zmp_timing.stance_placed(robot, motion.q[piece.last], sole, row, columns, data)
                    for row in joints])
+    held = robot.frame_placement(motion.q[piece.last], sole)
     for q in qs:  # the stance sole stays where the sample has it
-        assert robot.frame_placement(q, sole).isApprox(robot.frame_placement(motion.q[piece.last], sole), 1e-9)
+        assert robot.frame_placement(q, sole).isApprox(held, 1e-9)
     velocity, acceleration = trajectory_derivatives(model, qs, piece.duration / intervals)
     ground = robot.frame_placement(qs[0], sole).translation[2]
     zmp = multibody_zmp(model, qs, velocity, acceleration, ground)
