@@ -373,8 +373,8 @@ def bioloid_schema(kind: str) -> Map:
                 "climbs": Key(Number(ge=1, integer=True, nullable=True),
                               default_of(simulate_stairs, "climbs")),
                 "com_inset": Key(Number(ge=0, unit="m"), default_of(simulate_stairs, "com_inset"),
-                                 doc="UpStair and DownStair move the CoM this far into a sole before the "
-                                     "other lifts"),
+                                 doc="every step of the run (half steps, UpStair, DownStair) moves the CoM "
+                                     "this far into a sole before the other lifts"),
                 "physics": Key(Map(physics_keys(), nullable=True), None,
                                doc="the run in MuJoCo on the staircase's boxes, open loop"),
                 "expect": Key(expect_block(STAIR_RULES), None)}

@@ -17,7 +17,7 @@ from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.motion.walking.physics import Measured, Simulation, servo_joints
 from wbik.motion.walking.planned_torques import support_torques
 from wbik.motion.walking.stabiliser import PhysicsSettings
-from wbik.motion.walking.zmp_timing import stance_placed, stance_sole
+from wbik.motion.walking.zmp_timing import stance_placed, stance_sole, stance_support
 
 TICK_S = 0.01  # s between two servo targets
 HELD = "held at the end"  # the label of the ticks after the motion (``settle_s``)
@@ -80,8 +80,7 @@ def _lead(robot, motion, knots: np.ndarray, ticks: np.ndarray, angles: np.ndarra
     soles = [stance_sole(motion.support, i) for i in sample]
     qs = np.array([stance_placed(robot, motion.q[i], sole, row, columns, data)
                    for i, sole, row in zip(sample, soles, angles, strict=True)])
-    support = [tuple(s for s in motion.support[i] if s in motion.support[i - 1]) or (sole,)
-               for i, sole in zip(sample, soles, strict=True)]
+    support = [stance_support(motion.support, i) for i in sample]
     load = [robot.center_of_mass(q)[:2] for q in qs]
     torques = support_torques(robot.model, qs, TICK_S, support, load, servo_joints(robot),
                               settings.servos.armature)

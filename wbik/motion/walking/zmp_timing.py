@@ -6,7 +6,8 @@ acceleration (q'' and the q'^2 terms alike) by k^2, so the centroidal wrench is 
 n = N / k^2 (F, N: the rates of linear and angular momentum about the CoM at k = 1). The ZMP's shift
 from the CoM's projection is then ((h F_x + N_y), (h F_y - N_x)) / (k^2 (m g + F_z / k^2)), h the CoM's
 height over the stance sole: each piece gets the least k of a geometric grid keeping it within
-``shift_max`` (and the ground's push above a fifth of the weight) at every grid point of the piece.
+``shift_max`` (and the ground's push above a fifth of the weight) at every grid point of the piece. The
+pieces must each join two samples (timing mode ``segment``), under a law with bounded acceleration.
 
 The floating base between samples is where the stance sole (the sole the two samples stand on) keeps its
 pose, as the servos would carry the body."""
@@ -27,12 +28,19 @@ from wbik.robot import Robot
 GRID = 24  # intervals of the time grid on which a piece's ZMP is checked
 GROWTH = 1.02  # the ratio between two slowing factors tried
 LEAST_PUSH = 0.2  # the ground's push must stay above this share of the weight
+SLOWEST = 1e4  # a piece is never slowed more than this
+
+
+def stance_support(support: Sequence[Sequence[str]], sample: int) -> tuple[str, ...]:
+    """The soles the motion stands on from sample ``sample - 1`` to ``sample``: those both samples list
+    (else the sample's own)."""
+    both = tuple(sole for sole in support[sample] if sole in support[max(sample - 1, 0)])
+    return both or tuple(support[sample])
 
 
 def stance_sole(support: Sequence[Sequence[str]], sample: int) -> str:
-    """The sole the motion stands on from sample ``sample - 1`` to ``sample``: one both samples list."""
-    both = [sole for sole in support[sample] if sole in support[max(sample - 1, 0)]]
-    return sorted(both or support[sample])[0]
+    """One sole of :func:`stance_support` (the first by name): the one that keeps its pose."""
+    return sorted(stance_support(support, sample))[0]
 
 
 def stance_placed(robot: Robot, sampled_q: np.ndarray, sole: str, joints: np.ndarray, columns: Sequence[int],
@@ -58,6 +66,16 @@ def slowed_for_zmp(robot: Robot, q: np.ndarray, support: Sequence[Sequence[str]]
         raise InvalidConfigurationError(f"the ZMP shift bound must be positive, got {shift_max}")
     if not robot.has_floating_base:
         raise InvalidConfigurationError(f"{robot.name!r} has no floating base to keep a sole still")
+    if any(piece.last - piece.first > 1 for piece in timed.pieces):
+        raise InvalidConfigurationError("a ZMP shift bound needs a rest at every sample (timing mode "
+                                        f"'segment'), got mode {timed.mode!r}: a longer piece may change its "
+                                        "stance sole")
+    if not np.isfinite(timed.law.peak_acceleration):
+        raise InvalidConfigurationError(f"a ZMP shift bound needs a time law with bounded acceleration "
+                                        f"('cubic' or 'quintic'), got {timed.law.name!r}")
+    if not len(q) == len(support) == len(timed.knot_times):
+        raise InvalidConfigurationError(f"{len(q)} samples, {len(support)} supports and "
+                                        f"{len(timed.knot_times)} timed knots: one of each per sample")
     model, data = robot.model, robot.model.createData()
     weight = pin.computeTotalMass(model) * float(np.linalg.norm(model.gravity.linear))
     pieces, knot_times, clock = [], np.array(timed.knot_times, dtype=float), 0.0
@@ -90,13 +108,18 @@ def _slowing(robot: Robot, q: np.ndarray, support, timed: TimedPath, piece: Piec
         pin.computeCentroidalMomentumTimeVariation(model, data, configurations[k], velocity[k],
                                                    acceleration[k])
         rates.append((*data.dhg.linear, *data.dhg.angular, data.com[0][2] - ground))
-    force_x, force_y, force_z, moment_x, moment_y, _, height = np.array(rates).T
+    linear_x, linear_y, linear_z, angular_x, angular_y, _, height = np.array(rates).T  # m c'', dL/dt
+    if not np.all(np.isfinite(rates)):
+        raise InvalidConfigurationError(f"the motion's momentum is not finite between samples {piece.first} "
+                                        f"and {piece.last}")
     factor = 1.0
-    while True:
+    while factor < SLOWEST:
         squared = factor * factor
-        push = weight + force_z / squared
+        push = weight + linear_z / squared
         if np.all(push > LEAST_PUSH * weight):
-            shift = np.hypot(height * force_x + moment_y, height * force_y - moment_x) / (squared * push)
+            shift = np.hypot(height * linear_x + angular_y, height * linear_y - angular_x) / (squared * push)
             if np.max(shift) <= shift_max:
                 return factor
         factor *= GROWTH
+    raise InvalidConfigurationError(f"samples {piece.first} to {piece.last} keep the ZMP {shift_max} m from "
+                                    f"the CoM only slowed over {SLOWEST:g} times: is the bound too small?")
