@@ -13,6 +13,8 @@ from dataclasses import replace
 import numpy as np
 import pinocchio as pin
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import wbik
 from wbik.apps.bioloid.behaviours import half_step_sequence
@@ -22,6 +24,7 @@ from wbik.motion.timing import Piece
 from wbik.motion.walking import zmp_timing
 from wbik.motion.walking.multibody_zmp import actuated_joints, multibody_zmp, trajectory_derivatives
 from wbik.motion.walking.physics import Servos, Simulation
+from wbik.motion.walking.static_gait import SampledMotion
 
 FINE = 60  # intervals per piece of the independent check (the module uses zmp_timing.GRID)
 
@@ -123,3 +126,21 @@ def test_a_contact_time_constant_under_two_timesteps_is_refused_and_one_above_is
     assert np.all(sim.model.geom_solref[:, 0] == 0.004)
     default = Simulation(robot, servos, robot.nominal, timestep=0.001)
     assert np.all(default.model.geom_solref[:, 0] == 0.02)  # MuJoCo's own
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_a_slowing_moves_by_at_most_one_grid_step_under_rounding_noise(half_steps, seed):
+    """Joints moved by 1e-12 of their value (another CPU's rounding) slow each piece by the same factor, or
+    by the next one of the grid where the piece sits on the bound: never by more."""
+    robot, motion = half_steps
+    rng = np.random.default_rng(seed)
+    noisy_q = motion.q * (1.0 + 1e-12 * rng.standard_normal(motion.q.shape))
+    noisy = SampledMotion(motion.name, robot, noisy_q, motion.phase, motion.phase_names, motion.support)
+    factors = []
+    for sampled in (motion, noisy):
+        fast, slow = time_scale_motion(sampled, 40.0), time_scale_motion(sampled, 40.0, zmp_shift_max=0.004)
+        factors.append(np.array([after.duration / before.duration if before.duration > 0 else 1.0
+                                 for before, after in zip(fast.timed.pieces, slow.timed.pieces, strict=True)]))
+    steps = np.abs(np.log(factors[1] / factors[0])) / math.log(zmp_timing.GROWTH)
+    assert np.all(steps <= 1.0 + 1e-6)
