@@ -140,7 +140,8 @@ def test_a_slowing_moves_by_at_most_one_grid_step_under_rounding_noise(half_step
     factors = []
     for sampled in (motion, noisy):
         fast, slow = time_scale_motion(sampled, 40.0), time_scale_motion(sampled, 40.0, zmp_shift_max=0.004)
+        pairs = zip(fast.timed.pieces, slow.timed.pieces, strict=True)
         factors.append(np.array([after.duration / before.duration if before.duration > 0 else 1.0
-                                 for before, after in zip(fast.timed.pieces, slow.timed.pieces, strict=True)]))
+                                 for before, after in pairs]))
     steps = np.abs(np.log(factors[1] / factors[0])) / math.log(zmp_timing.GROWTH)
     assert np.all(steps <= 1.0 + 1e-6)
