@@ -14,7 +14,7 @@ import numpy as np
 from wbik.apps.bioloid.gait import TimedMotion
 from wbik.apps.bioloid.stairs import StairRun
 from wbik.motion.walking.multibody_zmp import actuated_joints
-from wbik.motion.walking.physics import Measured, Simulation, servo_joints
+from wbik.motion.walking.physics import Measured, servo_joints
 from wbik.motion.walking.planned_torques import support_torques
 from wbik.motion.walking.stabiliser import PhysicsSettings
 from wbik.motion.walking.zmp_timing import stance_placed, stance_sole, stance_support
@@ -33,8 +33,7 @@ def stairs_physics(run: StairRun, timed: TimedMotion, settings: PhysicsSettings)
     horizontal distance to the planned one at its end, the base's distance at the end) and what it measured
     tick by tick."""
     robot, motion = run.robot, timed.motion
-    sim = Simulation(robot, settings.servos, motion.q[0], 0.0, settings.timestep, settings.friction,
-                     run.stairs.boxes(), settings.contact_time_constant)
+    sim = settings.simulation(robot, motion.q[0], 0.0, run.stairs.boxes())
     columns = [robot.model.joints[j].idx_q for j in actuated_joints(robot.model)]
     ticks = TICK_S * np.arange(1, int(math.ceil((timed.duration + settings.settle_s) / TICK_S)) + 1)
     angles, _ = timed.evaluate(np.minimum(ticks, timed.duration))
@@ -77,9 +76,10 @@ def _lead(robot, motion, knots: np.ndarray, ticks: np.ndarray, angles: np.ndarra
     by the sole(s) the tick's samples stand on (the load shared by where the CoM is over them)."""
     data = robot.model.createData()
     sample = np.clip(np.searchsorted(knots, np.minimum(ticks, knots[-1]) - 1e-9), 1, len(motion.q) - 1)
-    soles = [stance_sole(motion.support, i) for i in sample]
-    qs = np.array([stance_placed(robot, motion.q[i], sole, row, columns, data)
-                   for i, sole, row in zip(sample, soles, angles, strict=True)])
+    first = np.flatnonzero(np.r_[True, sample[1:] != sample[:-1]])  # the ticks of one sample run together
+    qs = np.vstack([stance_placed(robot, motion.q[sample[start]], stance_sole(motion.support, sample[start]),
+                                  angles[start:end], columns, data)
+                    for start, end in zip(first, np.r_[first[1:], len(sample)], strict=True)])
     support = [stance_support(motion.support, i) for i in sample]
     load = [robot.center_of_mass(q)[:2] for q in qs]
     torques = support_torques(robot.model, qs, TICK_S, support, load, servo_joints(robot),

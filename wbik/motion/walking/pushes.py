@@ -126,8 +126,7 @@ def players(motion: WalkMotion, new_tracker: Callable[[], Tracker], q0, settings
     pattern = motion.pattern
 
     def scene(q_start, push: Push | None) -> Simulation:
-        sim = Simulation(pattern.robot, settings.servos, q_start, pattern.ground_z, settings.timestep,
-                         settings.friction, contact_time_constant=settings.contact_time_constant)
+        sim = settings.simulation(pattern.robot, q_start, pattern.ground_z)
         sim.push = push
         return sim
 

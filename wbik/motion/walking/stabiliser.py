@@ -58,6 +58,11 @@ class PhysicsSettings:
     step_adaptation: StepAdaptation | None = None
     contact_time_constant: float | None = None
 
+    def simulation(self, robot, q: np.ndarray, ground_z: float = 0.0, boxes=()) -> Simulation:
+        """``robot`` standing at ``q`` in the scene these settings describe (``boxes``: solid terrain)."""
+        return Simulation(robot, self.servos, q, ground_z, self.timestep, self.friction, boxes,
+                          self.contact_time_constant)
+
 
 class Stabiliser:
     """The corrections of one walk's tracking from the measured state, tick by tick."""
@@ -149,8 +154,7 @@ def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray,
     pattern = motion.pattern
 
     def scene() -> Simulation:
-        return Simulation(pattern.robot, settings.servos, motion.q[0], pattern.ground_z, settings.timestep,
-                          settings.friction, contact_time_constant=settings.contact_time_constant)
+        return settings.simulation(pattern.robot, motion.q[0], pattern.ground_z)
 
     def figures(sim: Simulation, measured: Measured) -> dict:
         travel = sim.state()[0][:2] - motion.q[0][:2]

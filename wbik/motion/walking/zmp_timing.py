@@ -45,17 +45,18 @@ def stance_sole(support: Sequence[Sequence[str]], sample: int) -> str:
 
 def stance_placed(robot: Robot, sampled_q: np.ndarray, sole: str, joints: np.ndarray, columns: Sequence[int],
                   data: pin.Data) -> np.ndarray:
-    """The configuration with the 1-DOF ``joints`` (in ``columns`` of q) and the floating base placed so
-    that ``sole`` is where it is in ``sampled_q``."""
+    """The configurations (R, nq) with each row of the 1-DOF ``joints`` (R, len(columns)) in ``columns`` of
+    q and the floating base placed so that ``sole`` is where it is in ``sampled_q``."""
     model, frame = robot.model, robot.frame_id(sole)
     pin.framesForwardKinematics(model, data, sampled_q)
     wanted = data.oMf[frame].copy()
-    q = sampled_q.copy()
-    q[list(columns)] = joints
-    pin.framesForwardKinematics(model, data, q)
-    base = wanted * data.oMf[frame].inverse() * pin.XYZQUATToSE3(q[:7])
-    q[:7] = pin.SE3ToXYZQUAT(base)
-    return q
+    placed = np.repeat(sampled_q[None, :], len(joints), axis=0)
+    placed[:, list(columns)] = joints
+    for q in placed:
+        pin.framesForwardKinematics(model, data, q)
+        base = wanted * data.oMf[frame].inverse() * pin.XYZQUATToSE3(q[:7])
+        q[:7] = pin.SE3ToXYZQUAT(base)
+    return placed
 
 
 def slowed_for_zmp(robot: Robot, q: np.ndarray, support: Sequence[Sequence[str]], timed: TimedPath,
@@ -98,8 +99,7 @@ def _slowing(robot: Robot, q: np.ndarray, support, timed: TimedPath, piece: Piec
     sole = stance_sole(support, piece.last)
     times = piece.start + piece.duration * np.linspace(0.0, 1.0, GRID + 1)
     joints, _, _ = timed.evaluate(times)
-    configurations = np.array([stance_placed(robot, q[piece.last], sole, row, columns, data)
-                               for row in joints])
+    configurations = stance_placed(robot, q[piece.last], sole, joints, columns, data)
     velocity, acceleration = trajectory_derivatives(model, configurations, piece.duration / GRID)
     pin.framesForwardKinematics(model, data, configurations[0])
     ground = data.oMf[robot.frame_id(sole)].translation[2]
