@@ -74,11 +74,10 @@ def _lead(robot, motion, knots: np.ndarray, ticks: np.ndarray, angles: np.ndarra
           settings: PhysicsSettings) -> np.ndarray:
     """The servos' targets' lead tau / kp at each tick: the planned motion's joint torques, the body carried
     by the sole(s) the tick's samples stand on (the load shared by where the CoM is over them)."""
-    data = robot.model.createData()
     sample = np.clip(np.searchsorted(knots, np.minimum(ticks, knots[-1]) - 1e-9), 1, len(motion.q) - 1)
     first = np.flatnonzero(np.r_[True, sample[1:] != sample[:-1]])  # the ticks of one sample run together
     qs = np.vstack([stance_placed(robot, motion.q[sample[start]], stance_sole(motion.support, sample[start]),
-                                  angles[start:end], columns, data)
+                                  angles[start:end], columns)
                     for start, end in zip(first, np.r_[first[1:], len(sample)], strict=True)])
     support = [stance_support(motion.support, i) for i in sample]
     load = [robot.center_of_mass(q)[:2] for q in qs]

@@ -22,6 +22,7 @@ import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.timing import Piece, TimedPath
+from wbik.motion.walking.footsteps import placed_on
 from wbik.motion.walking.multibody_zmp import trajectory_derivatives
 from wbik.robot import Robot
 
@@ -43,20 +44,14 @@ def stance_sole(support: Sequence[Sequence[str]], sample: int) -> str:
     return sorted(stance_support(support, sample))[0]
 
 
-def stance_placed(robot: Robot, sampled_q: np.ndarray, sole: str, joints: np.ndarray, columns: Sequence[int],
-                  data: pin.Data) -> np.ndarray:
+def stance_placed(robot: Robot, sampled_q: np.ndarray, sole: str, joints: np.ndarray,
+                  columns: Sequence[int]) -> np.ndarray:
     """The configurations (R, nq) with each row of the 1-DOF ``joints`` (R, len(columns)) in ``columns`` of
-    q and the floating base placed so that ``sole`` is where it is in ``sampled_q``."""
-    model, frame = robot.model, robot.frame_id(sole)
-    pin.framesForwardKinematics(model, data, sampled_q)
-    wanted = data.oMf[frame].copy()
-    placed = np.repeat(sampled_q[None, :], len(joints), axis=0)
-    placed[:, list(columns)] = joints
-    for q in placed:
-        pin.framesForwardKinematics(model, data, q)
-        base = wanted * data.oMf[frame].inverse() * pin.XYZQUATToSE3(q[:7])
-        q[:7] = pin.SE3ToXYZQUAT(base)
-    return placed
+    q and the floating base placed so that ``sole`` is where it is in ``sampled_q`` (:func:`placed_on`)."""
+    wanted = robot.frame_placement(sampled_q, sole)
+    rows = np.repeat(sampled_q[None, :], len(joints), axis=0)
+    rows[:, list(columns)] = joints
+    return np.array([placed_on(robot, q, sole, wanted) for q in rows])
 
 
 def slowed_for_zmp(robot: Robot, q: np.ndarray, support: Sequence[Sequence[str]], timed: TimedPath,
@@ -99,7 +94,7 @@ def _slowing(robot: Robot, q: np.ndarray, support, timed: TimedPath, piece: Piec
     sole = stance_sole(support, piece.last)
     times = piece.start + piece.duration * np.linspace(0.0, 1.0, GRID + 1)
     joints, _, _ = timed.evaluate(times)
-    configurations = stance_placed(robot, q[piece.last], sole, joints, columns, data)
+    configurations = stance_placed(robot, q[piece.last], sole, joints, columns)
     velocity, acceleration = trajectory_derivatives(model, configurations, piece.duration / GRID)
     pin.framesForwardKinematics(model, data, configurations[0])
     ground = data.oMf[robot.frame_id(sole)].translation[2]
