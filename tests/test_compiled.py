@@ -33,7 +33,7 @@ def test_the_extensions_are_built_where_a_compiler_exists():
     assert (targets._compiled_accepts_plain_se3 is not None) == HAS_COMPILER
     from wbik import geometry
 
-    assert (geometry._compiled_error_parts is not None) == HAS_COMPILER
+    assert (geometry._compiled_pose_errors is not None) == HAS_COMPILER
     from wbik.qp import step, tasks
 
     assert (tasks._FRAME_ROWS is not None) == HAS_COMPILER and (step._QUADRATIC is not None) == HAS_COMPILER
@@ -43,8 +43,8 @@ def test_the_extensions_are_built_where_a_compiler_exists():
     from wbik.solvers import bounded_lm
 
     assert (bounded_lm._LM_ATTEMPT is not None) == HAS_COMPILER  # (None too from a stale build: rebuild)
-    assert geometry.error_parts is (geometry._python_error_parts if pure_python("pose") or not HAS_COMPILER
-                                    else geometry._compiled_error_parts)
+    assert geometry.pose_errors is (geometry._python_pose_errors if pure_python("pose") or not HAS_COMPILER
+                                    else geometry._compiled_pose_errors)
     expected = targets._python_accepts_plain_se3 if pure_python("pose") or not HAS_COMPILER else \
         targets._compiled_accepts_plain_se3
     assert targets._accepts_plain_se3 is expected  # WBIK_PURE_PYTHON=1 (a whole-suite run) picks Python
@@ -176,48 +176,90 @@ def test_se3_check_reads_strided_matrices_and_refuses_other_buffers():
         targets._compiled_accepts_plain_se3(pose, MAX_POSITION, "1e-6")
 
 
+def half_turn_relative(rng: np.random.Generator, reached: pin.SE3, gap: float) -> np.ndarray:
+    """A target rotation R* with R*^T R a turn of pi - gap about a random axis."""
+    axis = rng.normal(size=3)
+    return reached.rotation @ pin.exp3((np.pi - gap) * axis / np.linalg.norm(axis)).T
+
+
 @COMPILED_TWIN
 @pytest.mark.numerics
-def test_error_parts_twins_give_the_same_bits():
-    """The shared check's arithmetic (p - p*, |p - p*|, R*^T R): compiled and Python twins agree bit for
-    bit on random and nearly equal poses, with and without a target rotation; and log3 of R*^T R is
-    geometry.rotation_error's e_R (numpy's product, to rounding)."""
+def test_pose_errors_twins_give_the_same_bits():
+    """The shared check's errors (e_p, e_R, |e_p|, |e_R|): compiled and Python twins agree bit for bit on
+    random, nearly equal and nearly half-turned poses, with and without a target rotation; e_R is
+    Pinocchio's log3 of R*^T R to rounding wherever the twins call their formula exact, and they do not
+    call it exact only within 1e-6 of a half turn, where the check takes Pinocchio's."""
     from wbik import geometry
 
     rng = np.random.default_rng(12)
-    for index in range(500):
+    for index in range(600):
         reached = pin.SE3(pin.exp3(rng.normal(size=3)), rng.uniform(-2.0, 2.0, 3))
         near = reached * pin.exp6(pin.Motion(10.0 ** rng.uniform(-15, -3) * rng.normal(size=6)))
         target = near if index % 2 else pin.SE3(pin.exp3(rng.normal(size=3)), rng.uniform(-2.0, 2.0, 3))
         rotation = None if index % 5 == 0 else target.rotation
+        if index % 3 == 0 and rotation is not None:
+            rotation = half_turn_relative(rng, reached, 10.0 ** rng.uniform(-12, -1))
         outputs = []
-        for twin in (geometry._python_error_parts, geometry._compiled_error_parts):
-            position_error, relative = np.empty(3), np.zeros((3, 3))
-            norm = twin(reached.homogeneous, target.translation, rotation, position_error, relative)
-            outputs.append((np.float64(norm).tobytes(), position_error.tobytes(), relative.tobytes()))
+        for twin in (geometry._python_pose_errors, geometry._compiled_pose_errors):
+            errors = np.empty(8)
+            exact = twin(reached.homogeneous, target.translation, rotation, errors)
+            outputs.append((exact, errors.tobytes()))
         assert outputs[0] == outputs[1]
-        if rotation is not None:
-            ours = pin.log3(np.frombuffer(outputs[0][2]).reshape(3, 3))
-            # log3 near a half turn turns 1e-16 in the product into ~1e-12 in the axis: a looser bound
-            # for the random (far) targets, a tight one for the near ones, as in a converged check
-            np.testing.assert_allclose(ours, geometry.rotation_error(reached.rotation, rotation), rtol=0,
-                                       atol=1e-14 if index % 2 else 1e-10)
+        exact, errors = outputs[0][0], np.frombuffer(outputs[0][1])
+        np.testing.assert_array_equal(errors[:3], reached.translation - target.translation)
+        assert errors[6] == pytest.approx(np.linalg.norm(errors[:3]), rel=1e-15, abs=0.0)
+        if rotation is None:
+            assert exact and not errors[3:6].any() and errors[7] == 0.0
+            continue
+        log3 = geometry.rotation_error(reached.rotation, rotation)
+        angle_from_pi = np.pi - np.linalg.norm(log3)
+        assert exact == (angle_from_pi > 5e-7 or not angle_from_pi < 2e-6), angle_from_pi  # 1e-6 of sin
+        if exact:
+            # the axis from vee carries 1e-16 / sin(angle): tight for converged checks, looser near pi
+            angle = np.linalg.norm(log3)
+            bound = 1e-14 if index % 2 and index % 3 else 1e-13 * (1.0 + angle) / max(np.sin(angle), 1e-6)
+            np.testing.assert_allclose(errors[3:6], log3, rtol=0, atol=bound)
+            assert errors[7] == pytest.approx(angle, rel=0, abs=bound)
 
 
 @COMPILED_TWIN
-def test_error_parts_refuses_wrong_buffers():
+def test_check_fast_paths_twins_agree():
+    """inside_limits and finite_vector, the fast-path tests of the shared check and of the start joints:
+    both twins give the same verdict on joints inside, on and outside the limits, non-finite ones and
+    arrays of another shape or type (those take the general path, which decides)."""
+    from wbik import robot
+    from wbik.solvers import check
+
+    lower, upper = np.array([-1.0, -2.0, 0.0]), np.array([1.0, 2.0, 0.5])
+    inputs = [np.array([0.0, 0.0, 0.25]), lower.copy(), upper.copy(), np.array([1.0 + 1e-16, 0.0, 0.1]),
+              np.array([0.0, -2.0000001, 0.1]), np.array([np.nan, 0.0, 0.1]), np.array([0.0, np.inf, 0.1]),
+              np.zeros(4), np.zeros((1, 3)), np.zeros(3, dtype=np.float32), [0.0, 0.0, 0.1], None,
+              np.array([0.0, 1.0, 0.2, 5.0])[:3], np.arange(6.0)[::2] * 0.1]
+    for q in inputs:
+        verdicts = {check._python_inside_limits(q, lower, upper), check.inside_limits(q, lower, upper)}
+        assert len(verdicts) == 1, q
+        finite = {robot._python_finite_vector(q, 3), robot.finite_vector(q, 3)}
+        assert len(finite) == 1, q
+    assert check.inside_limits(np.array([0.0, 0.0, 0.25]), lower, upper)
+    assert not check.inside_limits(np.array([0.0, -2.0000001, 0.1]), lower, upper)
+    assert robot.finite_vector(np.arange(6.0)[::2], 3)
+    assert not robot.finite_vector(np.array([0.0, np.nan, 0.0]), 3)
+
+
+@COMPILED_TWIN
+def test_pose_errors_refuses_wrong_buffers():
     from wbik import geometry
 
     pose = random_pose(np.random.default_rng(3))
     with pytest.raises(TypeError, match="position"):
-        geometry._compiled_error_parts(pose, np.zeros(4), None, np.empty(3), None)
-    with pytest.raises(TypeError, match="relative"):
-        geometry._compiled_error_parts(pose, np.zeros(3), np.eye(3), np.empty(3), np.empty(3))
-    with pytest.raises(TypeError, match="position_error"):
-        geometry._compiled_error_parts(pose, np.zeros(3), None, np.empty(3, dtype=np.float32), None)
-    with pytest.raises(TypeError, match="position_error: expected a writable C-contiguous array"):
-        geometry._compiled_error_parts(pose, np.zeros(3), None, np.empty(6)[::2], None)
-    read_only = np.empty(3)
+        geometry._compiled_pose_errors(pose, np.zeros(4), None, np.empty(8))
+    with pytest.raises(TypeError, match="rotation"):
+        geometry._compiled_pose_errors(pose, np.zeros(3), np.eye(4), np.empty(8))
+    with pytest.raises(TypeError, match="errors"):
+        geometry._compiled_pose_errors(pose, np.zeros(3), None, np.empty(8, dtype=np.float32))
+    with pytest.raises(TypeError, match="errors: expected a writable C-contiguous array"):
+        geometry._compiled_pose_errors(pose, np.zeros(3), None, np.empty(16)[::2])
+    read_only = np.empty(8)
     read_only.flags.writeable = False
-    with pytest.raises(TypeError, match="position_error: expected a writable C-contiguous array"):
-        geometry._compiled_error_parts(pose, np.zeros(3), None, read_only, None)
+    with pytest.raises(TypeError, match="errors: expected a writable C-contiguous array"):
+        geometry._compiled_pose_errors(pose, np.zeros(3), None, read_only)

@@ -111,29 +111,46 @@ def rotation_error(reached: np.ndarray, target: np.ndarray) -> np.ndarray:
     return pin.log3(target.T.dot(reached))
 
 
-def _python_error_parts(reached: np.ndarray, position: np.ndarray, rotation: np.ndarray | None,
-                        position_error: np.ndarray, relative: np.ndarray | None) -> float:
-    """The shared FK check's arithmetic in plain floats, from the reached 4x4 pose: p - p* into
-    ``position_error``, R*^T R into ``relative`` (for a rotation); returns |p - p*|. Compiled twin:
-    ``wbik.kernels._pose.error_parts``, the same bits."""
-    (r00, r01, r02, x), (r10, r11, r12, y), (r20, r21, r22, z), _ = reached.tolist()
-    px, py, pz = position.tolist()
-    ex, ey, ez = x - px, y - py, z - pz
-    position_error[0], position_error[1], position_error[2] = ex, ey, ez
-    if rotation is not None:
-        (t00, t01, t02), (t10, t11, t12), (t20, t21, t22) = rotation.tolist()
-        relative[:] = ((t00 * r00 + t10 * r10 + t20 * r20, t00 * r01 + t10 * r11 + t20 * r21,
-                        t00 * r02 + t10 * r12 + t20 * r22),
-                       (t01 * r00 + t11 * r10 + t21 * r20, t01 * r01 + t11 * r11 + t21 * r21,
-                        t01 * r02 + t11 * r12 + t21 * r22),
-                       (t02 * r00 + t12 * r10 + t22 * r20, t02 * r01 + t12 * r11 + t22 * r21,
-                        t02 * r02 + t12 * r12 + t22 * r22))
-    return math.sqrt(ex * ex + ey * ey + ez * ez)
+def plain_pose_errors(reached: list[float], position: list[float], rotation: list[float] | None
+                      ) -> tuple[list[float], bool]:
+    """((e_p (3), e_R (3), |e_p|, |e_R|), exact) of a tip pose (its 4x4 matrix's first 12 values, row by
+    row) on a target (rotation: 9 values row by row, None for a position): e_R = log3(R*^T R) in
+    :func:`batch_log3`'s formula (0 without a rotation), operation by operation as ``_pose_errors.h``.
+    ``exact`` is False where that formula loses the axis (|vee| < 1e-6 near a half turn)."""
+    r00, r01, r02, x, r10, r11, r12, y, r20, r21, r22, z = reached[:12]
+    ex, ey, ez = x - position[0], y - position[1], z - position[2]
+    position_norm = math.sqrt(ex * ex + ey * ey + ez * ez)
+    if rotation is None:
+        return [ex, ey, ez, 0.0, 0.0, 0.0, position_norm, 0.0], True
+    t00, t01, t02, t10, t11, t12, t20, t21, t22 = rotation
+    m = [t00 * r00 + t10 * r10 + t20 * r20, t00 * r01 + t10 * r11 + t20 * r21,
+         t00 * r02 + t10 * r12 + t20 * r22, t01 * r00 + t11 * r10 + t21 * r20,
+         t01 * r01 + t11 * r11 + t21 * r21, t01 * r02 + t11 * r12 + t21 * r22,
+         t02 * r00 + t12 * r10 + t22 * r20, t02 * r01 + t12 * r11 + t22 * r21,
+         t02 * r02 + t12 * r12 + t22 * r22]
+    vee = (m[7] - m[5], m[2] - m[6], m[3] - m[1])
+    twice_sine = math.sqrt(vee[0] * vee[0] + vee[1] * vee[1] + vee[2] * vee[2])
+    cosine = 0.5 * (m[0] + m[4] + m[8] - 1.0)
+    scale = math.atan2(0.5 * twice_sine, cosine) / max(twice_sine, 1e-300)
+    rx, ry, rz = vee[0] * scale, vee[1] * scale, vee[2] * scale
+    return ([ex, ey, ez, rx, ry, rz, position_norm, math.sqrt(rx * rx + ry * ry + rz * rz)],
+            not (twice_sine < 1e-6 and cosine < 0.0))
 
 
-_compiled_error_parts = compiled_twin("pose", "error_parts")
-error_parts = chosen(_python_error_parts, _compiled_error_parts, "pose")
-"""error_parts(reached, position, rotation, position_error, relative) -> |p - p*| (see the Python twin)."""
+def _python_pose_errors(reached: np.ndarray, position: np.ndarray, rotation: np.ndarray | None,
+                        errors: np.ndarray) -> bool:
+    """The shared FK check's errors of a reached 4x4 pose on a target, written into ``errors`` (8,) as
+    :func:`plain_pose_errors` gives them; returns its ``exact``. Compiled twin:
+    ``wbik.kernels._pose.pose_errors``, the same bits."""
+    values, exact = plain_pose_errors(reached.ravel().tolist(), position.tolist(),
+                                      None if rotation is None else rotation.ravel().tolist())
+    errors[:] = values
+    return exact
+
+
+_compiled_pose_errors = compiled_twin("pose", "pose_errors")
+pose_errors = chosen(_python_pose_errors, _compiled_pose_errors, "pose")
+"""pose_errors(reached, position, rotation, errors) -> exact (see the Python twin)."""
 
 
 def rotation_angle(reached: np.ndarray, target: np.ndarray) -> float:

@@ -32,6 +32,7 @@ from wbik.errors import (
 )
 from wbik.files import atomic_write_text
 from wbik.geometry import wrap_to_pi
+from wbik.kernels.twins import chosen, compiled_twin
 from wbik.kinematic_tree import ChainPath, chain_path, frame_index, leaf_frames
 from wbik.urdf import Mimic, angles_of, parse_urdf, reduced_model
 from wbik.validation import numeric_array
@@ -53,6 +54,17 @@ class PerThreadData:
 
 
 CachedT = TypeVar("CachedT")
+
+
+def _python_finite_vector(q, n: int) -> bool:
+    """Whether ``q`` is a float64 (n,) array of finite values (compiled twin:
+    ``wbik.kernels._pose.finite_vector``)."""
+    return (type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,)
+            and math.isfinite(float(q.dot(q))))
+
+
+finite_vector = chosen(_python_finite_vector, compiled_twin("pose", "finite_vector"), "pose")
+"""finite_vector(q, n) -> bool: the start joints' fast-path test (see the Python twin)."""
 
 
 class ChainCache:
@@ -161,8 +173,7 @@ class Chain:
 
     def check_q(self, q: Sequence[float]) -> np.ndarray:
         """q as a float array (a copy) of n finite values, or InvalidConfigurationError."""
-        if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self.nq,) \
-                and math.isfinite(float(q.dot(q))):  # the common case, fast (docs/measurements.md, robot)
+        if finite_vector(q, self.nq):  # the common case, fast (docs/measurements.md, robot)
             return q.copy()
         array = numeric_array(q, "joint values", InvalidConfigurationError).reshape(-1)
         if array.shape != (self.nq,):

@@ -3,42 +3,105 @@
  * - plain_se3: the plain-float test of wbik.targets._python_accepts_plain_se3 (is a 4x4 homogeneous
  *   matrix a pose as_target accepts on its fast path: position within the bound, unit and orthogonal
  *   rotation columns, det +1, all within the tolerance?);
- * - error_parts: the arithmetic of the shared FK check (wbik.geometry._python_error_parts): the position
- *   error p - p*, its norm, and R*^T R, whose log3 Pinocchio then takes.
+ * - pose_errors: the errors of the shared FK check (wbik.geometry._python_pose_errors): p - p*, log3(R*^T R)
+ *   in the batched check's formula (_pose_errors.h), and both norms;
+ * - inside_limits and finite_vector: the tests of the shared check's and the start joints' fast paths
+ *   (wbik.solvers.check._python_inside_limits, wbik.robot._python_finite_vector).
  *
  * The same products and sums in the same order as the Python twins (built with -ffp-contract=off), so
  * both give the same bits; tests/test_compiled.py compares them. wbik.kernels switches between them.
  */
 #include "_buffers.h"
+#include "_pose_errors.h"
 #include <math.h>
 
-/* error_parts(reached, position, rotation, position_error, relative) -> float
- * reached: the reached pose's 4x4 homogeneous matrix; position (3,) and rotation (3, 3) or None: the
- * target. Writes p - p* into position_error (3,) and, for a rotation, R*^T R into relative (3, 3)
- * (sum over k of R*_ki R_kj, k in order); returns |p - p*| = sqrt(x^2 + y^2 + z^2). */
-static PyObject *error_parts(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* pose_errors(reached, position, rotation, errors) -> bool
+ * reached: the reached pose's 4x4 homogeneous matrix; position (3,) and rotation (3, 3) or None: the target.
+ * Writes (e_p, e_R, |e_p|, |e_R|) into errors (8,): e_p = p - p*, e_R = log3(R*^T R) in the batched check's
+ * formula (0 for a position-only target). False where that formula loses the axis (|vee| < 1e-6 near a
+ * half turn, geometry.batch_log3's rule): e_p and |e_p| are written, the caller takes Pinocchio's log3. */
+static PyObject *pose_errors_of(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (check_count("error_parts", nargs, 5) < 0)
+    if (check_count("pose_errors", nargs, 4) < 0)
         return NULL;
-    double reached[16], position[3], error[3];
+    double reached[16], position[3], rotation[9], errors[8];
     if (read_doubles(args[0], reached, 4, 4, "reached") < 0 || read_doubles(args[1], position, 3, 0, "position") < 0)
         return NULL;
-    for (int i = 0; i < 3; i++)
-        error[i] = reached[4 * i + 3] - position[i];
-    if (write_doubles(args[3], error, 3, "position_error") < 0)
-        return NULL;
-    if (args[2] != Py_None) {
-        double target[9], relative[9];
-        if (read_doubles(args[2], target, 3, 3, "rotation") < 0)
+    const double reached_p[3] = {reached[3], reached[7], reached[11]};
+    const double reached_r[9] = {reached[0], reached[1], reached[2], reached[4], reached[5], reached[6],
+                                 reached[8], reached[9], reached[10]};
+    int exact = 1;
+    if (args[2] == Py_None) {
+        for (int i = 0; i < 3; i++) {
+            errors[i] = reached_p[i] - position[i];
+            errors[3 + i] = 0.0;
+        }
+        errors[6] = sqrt(errors[0] * errors[0] + errors[1] * errors[1] + errors[2] * errors[2]);
+        errors[7] = 0.0;
+    } else {
+        if (read_doubles(args[2], rotation, 3, 3, "rotation") < 0)
             return NULL;
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++)
-                relative[3 * i + j] = target[i] * reached[j] + target[3 + i] * reached[4 + j]
-                                      + target[6 + i] * reached[8 + j];
-        if (write_doubles(args[4], relative, 9, "relative") < 0)
-            return NULL;
+        exact = !pose_errors(reached_p, reached_r, position, rotation, errors);
     }
-    return PyFloat_FromDouble(sqrt(error[0] * error[0] + error[1] * error[1] + error[2] * error[2]));
+    if (write_doubles(args[3], errors, 8, "errors") < 0)
+        return NULL;
+    return PyBool_FromLong(exact);
+}
+
+/* A float64 1-D array of `count` values, else 0 (and no error set): the fast paths' shape test. */
+static int plain_vector(PyObject *object, Py_buffer *view, Py_ssize_t count)
+{
+    if (float64_view(object, view, 0, "") < 0) {
+        PyErr_Clear();
+        return 0;
+    }
+    if (view->ndim == 1 && view->shape[0] == count)
+        return 1;
+    PyBuffer_Release(view);
+    return 0;
+}
+
+/* inside_limits(q, lower, upper) -> bool: q a float64 (n,) array of finite values with lower <= q <= upper
+ * (lower and upper: float64 (n,)); False for anything else, which the general path then judges. */
+static PyObject *inside_limits(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (check_count("inside_limits", nargs, 3) < 0)
+        return NULL;
+    Py_buffer views[3];
+    Py_ssize_t n = PyObject_Length(args[1]);
+    if (n < 0)
+        return NULL;
+    int held = 0, inside = 1;
+    for (; held < 3 && inside; held++)
+        inside = plain_vector(args[held], &views[held], n);
+    if (!inside)
+        held--; /* the failed view was not kept */
+    for (Py_ssize_t i = 0; inside && i < n; i++) {
+        const double value = *(const double *)((const char *)views[0].buf + i * views[0].strides[0]);
+        const double low = *(const double *)((const char *)views[1].buf + i * views[1].strides[0]);
+        const double high = *(const double *)((const char *)views[2].buf + i * views[2].strides[0]);
+        inside = isfinite(value) && low <= value && value <= high;
+    }
+    release_views(views, held);
+    return PyBool_FromLong(inside);
+}
+
+/* finite_vector(q, n) -> bool: q a float64 (n,) array of finite values. */
+static PyObject *finite_vector(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (check_count("finite_vector", nargs, 2) < 0)
+        return NULL;
+    Py_ssize_t n = PyLong_AsSsize_t(args[1]);
+    if (n == -1 && PyErr_Occurred())
+        return NULL;
+    Py_buffer view;
+    if (!plain_vector(args[0], &view, n))
+        Py_RETURN_FALSE;
+    int finite = 1;
+    for (Py_ssize_t i = 0; finite && i < n; i++)
+        finite = isfinite(*(const double *)((const char *)view.buf + i * view.strides[0]));
+    PyBuffer_Release(&view);
+    return PyBool_FromLong(finite);
 }
 
 /* plain_se3(matrix, bound, tolerance) -> bool, for a float64 buffer of shape (4, 4) (any strides). */
@@ -68,9 +131,13 @@ static PyObject *plain_se3(PyObject *self, PyObject *const *args, Py_ssize_t nar
 static PyMethodDef methods[] = {
     {"plain_se3", (PyCFunction)(void (*)(void))plain_se3, METH_FASTCALL,
      "plain_se3(matrix, bound, tolerance) -> bool: the fast-path test of wbik.targets.as_target"},
-    {"error_parts", (PyCFunction)(void (*)(void))error_parts, METH_FASTCALL,
-     "error_parts(reached, position, rotation, position_error, relative) -> |p - p*|: the shared check's "
-     "arithmetic"},
+    {"pose_errors", (PyCFunction)(void (*)(void))pose_errors_of, METH_FASTCALL,
+     "pose_errors(reached, position, rotation, errors) -> bool: the shared check's errors (e_p, e_R, |e_p|, "
+     "|e_R|)"},
+    {"inside_limits", (PyCFunction)(void (*)(void))inside_limits, METH_FASTCALL,
+     "inside_limits(q, lower, upper) -> bool: finite float64 joints within their limits"},
+    {"finite_vector", (PyCFunction)(void (*)(void))finite_vector, METH_FASTCALL,
+     "finite_vector(q, n) -> bool: a float64 (n,) array of finite values"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_pose",

@@ -9,8 +9,10 @@
 /* errors = (ex, ey, ez, rx, ry, rz, |e_p|, |e_R|): position error p - p*, rotation error log3(R*^T R)
  * as vee(M - M^T) angle / |vee(M - M^T)| with M = R*^T R (sum over k of R*_ki R_kj, k in order) and
  * angle = atan2(|vee| / 2, (trace M - 1) / 2), and both norms. The formula loses the axis only near a
- * half turn; the callers check branches that passed their screen (rotation error <= 1e-7 rad). */
-static inline void pose_errors(const double reached_p[3], const double reached_r[9], const double position[3],
+ * half turn: the result is 1 there (|vee| < 1e-6 with a negative cosine, geometry.batch_log3's rule, where
+ * that function takes Pinocchio's log3), else 0. The closed forms' kernels check branches that passed their
+ * screen (rotation error <= 1e-7 rad); the shared check takes Pinocchio's log3 where the result is 1. */
+static inline int pose_errors(const double reached_p[3], const double reached_r[9], const double position[3],
                                const double rotation[9], double errors[8])
 {
     double m[9];
@@ -28,6 +30,7 @@ static inline void pose_errors(const double reached_p[3], const double reached_r
     }
     errors[6] = sqrt(errors[0] * errors[0] + errors[1] * errors[1] + errors[2] * errors[2]);
     errors[7] = sqrt(errors[3] * errors[3] + errors[4] * errors[4] + errors[5] * errors[5]);
+    return twice_sine < 1e-6 && cosine < 0.0;
 }
 
 #endif

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from wbik.geometry import TWO_PI
+from wbik.geometry import TWO_PI, plain_pose_errors
 from wbik.kernels.twins import chosen, compiled_twin
 
 _INVERSE_TURN = 1.0 / TWO_PI
@@ -140,26 +140,6 @@ def screen_values(reached: list[float], position: list[float], rotation: list[fl
     return math.acos(min(1.0, max(-1.0, 0.5 * (trace - 1.0)))) <= tolerance
 
 
-def pose_errors_python(reached: list[float], position: list[float], rotation: list[float]) -> list[float]:
-    """(e_p (3), e_R (3), |e_p|, |e_R|) of a tip pose (16 values) on a target, e_R in
-    :func:`wbik.geometry.batch_log3`'s formula (``_pose_errors.h``, operation by operation)."""
-    r00, r01, r02, x, r10, r11, r12, y, r20, r21, r22, z = reached[:12]
-    t00, t01, t02, t10, t11, t12, t20, t21, t22 = rotation
-    m = [t00 * r00 + t10 * r10 + t20 * r20, t00 * r01 + t10 * r11 + t20 * r21,
-         t00 * r02 + t10 * r12 + t20 * r22, t01 * r00 + t11 * r10 + t21 * r20,
-         t01 * r01 + t11 * r11 + t21 * r21, t01 * r02 + t11 * r12 + t21 * r22,
-         t02 * r00 + t12 * r10 + t22 * r20, t02 * r01 + t12 * r11 + t22 * r21,
-         t02 * r02 + t12 * r12 + t22 * r22]
-    vee = (m[7] - m[5], m[2] - m[6], m[3] - m[1])
-    twice_sine = math.sqrt(vee[0] * vee[0] + vee[1] * vee[1] + vee[2] * vee[2])
-    cosine = 0.5 * (m[0] + m[4] + m[8] - 1.0)
-    scale = math.atan2(0.5 * twice_sine, cosine) / max(twice_sine, 1e-300)
-    ex, ey, ez = x - position[0], y - position[1], z - position[2]
-    rx, ry, rz = vee[0] * scale, vee[1] * scale, vee[2] * scale
-    return [ex, ey, ez, rx, ry, rz, math.sqrt(ex * ex + ey * ey + ez * ez),
-            math.sqrt(rx * rx + ry * ry + rz * rz)]
-
-
 def choose_python(params: bytes, branches: np.ndarray, reference: np.ndarray, target: np.ndarray,
                   out: np.ndarray) -> int:
     """The Python twin of ``_eaik.choose`` (see the module docstring)."""
@@ -172,7 +152,7 @@ def choose_python(params: bytes, branches: np.ndarray, reference: np.ndarray, ta
     for q in rows[:screened].tolist():
         pose = poe_python(values, joints, q)
         if screen_values(pose, position, rotation, values[2]):
-            out[:] = q + pose + pose_errors_python(pose, position, rotation)
+            out[:] = q + pose + plain_pose_errors(pose, position, rotation)[0]
             return 1
     return 0
 

@@ -11,7 +11,8 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from wbik.geometry import error_parts
+from wbik.geometry import pose_errors
+from wbik.kernels.twins import chosen, compiled_twin
 from wbik.qp.kinematics import Kinematics
 from wbik.robot import Chain
 from wbik.solvers.result import NAN3, Candidate, IKResult, Tolerances
@@ -50,12 +51,28 @@ def clip_to_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.nd
     return _clip_ufunc(q, lower, upper)
 
 
+def _python_inside_limits(q, lower: np.ndarray, upper: np.ndarray) -> bool:
+    """Whether ``q`` is a float64 array of the limits' shape, finite and within them (compiled twin:
+    ``wbik.kernels._pose.inside_limits``)."""
+    if type(q) is not np.ndarray or q.dtype != np.float64 or q.shape != lower.shape or q.ndim != 1:
+        return False
+    return bool(np.all(np.isfinite(q)) and np.all(lower <= q) and np.all(q <= upper))
+
+
+inside_limits = chosen(_python_inside_limits, compiled_twin("pose", "inside_limits"), "pose")
+"""inside_limits(q, lower, upper) -> bool: the shared check's fast-path test (see the Python twin)."""
+
+
 def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tolerances,
              time_s: float, method: str, reached: np.ndarray | None = None) -> IKResult:
     """The shared FK check: clip into the limits, e_p = p - p* (base axes), e_R = log3(R*^T R), success.
     ``reached``: ``chain.fk(candidate.q).homogeneous`` as the method computed it, used only when the
     joints checked are ``candidate.q`` bit for bit."""
     q = candidate.q
+    if reached is None and not chain.any_continuous and inside_limits(q, chain.lower, chain.upper):
+        inside = q.copy()  # the common case: finite joints inside the limits, checked as they are
+        return judged(target, inside, chain.fk(inside).homogeneous, candidate, candidate.reason,
+                      tolerances, time_s, method)
     if q is None:
         return no_joints(candidate.reason or "no solution", time_s, candidate, method)
     if type(q) is not np.ndarray or q.dtype != np.float64:
@@ -75,25 +92,29 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
             return no_joints(invalid_joints_reason(q), time_s, candidate, method)
         if not reason and not chain.in_limits(q, tolerance=1e-9):
             reason = CLIPPED_REASON
-    target_rotation = target.rotation
-    position_xyz = np.empty(3)
-    relative = None if target_rotation is None else np.empty((3, 3))
     if reached is None:
         reached = chain.fk(inside).homogeneous
-    position_norm = error_parts(reached, target.position, target_rotation, position_xyz, relative)
-    if relative is None:
-        rotation_xyz, rotation_norm = np.zeros(3), 0.0
-    else:
-        rotation_xyz = pin.log3(relative)  # e_R = log3(R*^T R): geometry.rotation_error's
-        rotation_norm = math.hypot(*rotation_xyz.tolist())
-    if position_norm <= tolerances.position and rotation_norm <= tolerances.rotation:
-        return IKResult(inside, True, "", position_norm, rotation_norm, position_xyz, rotation_xyz,
-                        time_s, candidate.iterations, method, candidate.extra)
-    if position_norm != position_norm and not np.all(np.isfinite(q)):  # NaN joints give a NaN pose
-        return no_joints(invalid_joints_reason(q), time_s, candidate, method)
-    reason = reason or fk_check_reason(position_norm, rotation_norm)
-    return IKResult(inside, False, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
-                    time_s, candidate.iterations, method, candidate.extra)
+    result = judged(target, inside, reached, candidate, reason, tolerances, time_s, method)
+    if result.position_error != result.position_error and not np.all(np.isfinite(q)):
+        return no_joints(invalid_joints_reason(q), time_s, candidate, method)  # NaN joints, a NaN pose
+    return result
+
+
+def judged(target: Target, inside: np.ndarray, reached: np.ndarray, candidate: Candidate,
+           reason: str, tolerances: Tolerances, time_s: float, method: str) -> IKResult:
+    """The result of joints ``inside`` the limits whose tip pose is ``reached`` (4 x 4): their errors
+    (:func:`wbik.geometry.pose_errors`; Pinocchio's log3 near a half turn) against the tolerances."""
+    errors = np.empty(8)  # e_p, e_R, |e_p|, |e_R|
+    rotation = target.rotation
+    if not pose_errors(reached, target.position, rotation, errors):  # the formula lost the axis
+        errors[3:6] = pin.log3(rotation.T.dot(reached[:3, :3]))
+        errors[7] = math.hypot(*errors[3:6].tolist())
+    position_norm, rotation_norm = errors.item(6), errors.item(7)
+    success = position_norm <= tolerances.position and rotation_norm <= tolerances.rotation
+    if not success:
+        reason = reason or fk_check_reason(position_norm, rotation_norm)
+    return IKResult(inside, success, "" if success else reason, position_norm, rotation_norm, errors[:3],
+                    errors[3:6], time_s, candidate.iterations, method, candidate.extra)
 
 
 def evaluate_screened(chain: Chain, target: Target | np.ndarray, parts: np.ndarray, extra: dict,
