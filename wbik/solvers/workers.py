@@ -1,10 +1,11 @@
-"""A batch split over worker processes: ``solve_many(targets, q0s, workers=N)`` solves N contiguous parts
-of the batch at once in processes forked from this one, each running the method's own batched path on its
-part, and joins the answers in order. The solver is inherited by the fork, never pickled; SE3 targets
-travel as one array of 4 x 4 matrices and the answers as columns (a field's arrays stacked, its numbers in
-one array), a few microseconds an answer, so a part pays where a pose costs more than that. The processes
-are forked on a solver's first such call and kept for its later calls until it is garbage collected (they
-see the solver as it was then)."""
+"""A batch split over processes: ``solve_many(targets, q0s, workers=N)`` solves N contiguous parts of the
+batch at once, the first in this process and the others in N - 1 processes forked from it, each running the
+method's own batched path on its part, and joins the answers in order. The solver is inherited by the
+fork, never pickled; SE3 targets travel as one array of 4 x 4 matrices and the answers as columns (a
+field's arrays stacked, its numbers in one array), a few microseconds an answer, so a part pays where a
+pose costs more than that. Every part's BLAS runs on its share of the cores. The processes are forked on
+a solver's first such call and kept for its later calls until it is garbage collected (they see the
+solver as it was then)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import multiprocessing
 import os
 import weakref
 from concurrent.futures import ProcessPoolExecutor
+from operator import attrgetter
 
 import numpy as np
 import pinocchio as pin
@@ -37,31 +39,36 @@ def solve_in_workers(solver, targets: list, q0s, workers: int) -> list:
         LOGGER.warning("this platform cannot fork worker processes: solve_many runs in one process")
         return solver._solve_targets(targets, q0s)
     per_row = q0s is not None and np.ndim(q0s) == 2
-    executor = _pool(solver, workers)
-    parts = [part for part in np.array_split(np.arange(len(targets)), workers) if len(part)]
-    se3 = all(type(target) is pin.SE3 for target in targets)
-    matrices = np.array([target.homogeneous for target in targets]) if se3 else None
-    futures = [executor.submit(_solve_part, id(solver),
-                               matrices[part] if matrices is not None else [targets[i] for i in part],
-                               np.asarray(q0s)[part] if per_row else q0s) for part in parts]
-    return [answer for future in futures for answer in _rows(*future.result())]
+    own, *others = [part for part in np.array_split(np.arange(len(targets)), workers) if len(part)]
+    futures = []
+    if others:
+        executor = _pool(solver, len(others))
+        rest = targets[len(own):]
+        se3 = all(type(target) is pin.SE3 for target in rest)
+        matrices = np.array([target.homogeneous for target in rest]) if se3 else None
+        futures = [executor.submit(_solve_part, id(solver),
+                                   matrices[part - len(own)] if se3 else [targets[i] for i in part],
+                                   np.asarray(q0s)[part] if per_row else q0s) for part in others]
+    with threadpool_limits(_share(workers), user_api="blas"):
+        answers = solver._solve_targets(targets[:len(own)], np.asarray(q0s)[own] if per_row else q0s)
+    return answers + [answer for future in futures for answer in _rows(*future.result())]
 
 
-def _pool(solver, workers: int) -> ProcessPoolExecutor:
-    """The solver's pool of ``workers`` forked processes (a new one where the count changed)."""
+def _pool(solver, processes: int) -> ProcessPoolExecutor:
+    """The solver's pool of ``processes`` forked processes (a new one where the count changed)."""
     kept = _POOLS.get(solver)
-    if kept is not None and kept[1] == workers:
+    if kept is not None and kept[1] == processes:
         return kept[0]
     if kept is not None:
         kept[0].shutdown(wait=False, cancel_futures=True)
-    executor = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
-                                   initializer=_share_cores, initargs=(workers,))
+    executor = ProcessPoolExecutor(processes, mp_context=multiprocessing.get_context("fork"),
+                                   initializer=_share_cores, initargs=(processes + 1,))
     _INHERITED[id(solver)] = solver
     try:  # a fork-context pool forks all its processes at the first submit
         executor.submit(int).result()
     finally:
         del _INHERITED[id(solver)]
-    _POOLS[solver] = (executor, workers)
+    _POOLS[solver] = (executor, processes)
     weakref.finalize(solver, executor.shutdown, wait=False, cancel_futures=True)
     return executor
 
@@ -74,10 +81,15 @@ def usable_cores() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def _share(workers: int) -> int:
+    """One part's share of the cores: BLAS and LAPACK threads that do not spin on the cores the other
+    parts compute on (one of two parts on 2 cores: one thread)."""
+    return max(1, usable_cores() // workers)
+
+
 def _share_cores(workers: int) -> None:
-    """In a worker: BLAS and LAPACK on at most its share of the cores (one of two workers on 2 cores: one
-    thread), so that the library's own threads do not spin on the cores the other workers compute on."""
-    threadpool_limits(max(1, usable_cores() // workers), user_api="blas")
+    """In a forked process: BLAS and LAPACK on its share of the cores, for good."""
+    threadpool_limits(_share(workers), user_api="blas")
 
 
 def _solve_part(key: int, targets, q0s) -> tuple:
@@ -90,24 +102,28 @@ def _solve_part(key: int, targets, q0s) -> tuple:
 
 def _columns(answers: list) -> tuple:
     """(the answers' dataclass, {field: (how, values)}): arrays of one shape and dtype stacked ("rows"),
-    numbers of one type in one array ("numbers"), anything else as the list; or (None, answers)."""
-    if not answers or len({type(answer) for answer in answers}) != 1:
+    numbers of one type in one array ("numbers"), anything else as the list; or (None, answers). The
+    tests run as maps over the column (C loops: a few milliseconds for thousands of answers)."""
+    if not answers or len(set(map(type, answers))) != 1:
         return None, answers
     columns = {}
     for name in (item.name for item in dataclasses.fields(answers[0])):
-        values = [getattr(answer, name) for answer in answers]
-        first = values[0]
-        if isinstance(first, np.ndarray) and all(isinstance(value, np.ndarray) and value.shape == first.shape
-                                                 and value.dtype == first.dtype for value in values):
+        values = list(map(attrgetter(name), answers))
+        first, types = values[0], set(map(type, values))
+        if types == {np.ndarray} and len(set(map(_SHAPE, values))) == 1 \
+                and len(set(map(_DTYPE, values))) == 1:
             columns[name] = ("rows", np.stack(values))
-        elif type(first) in (bool, int, float) and all(type(value) is type(first) for value in values):
+        elif len(types) == 1 and type(first) in (bool, int, float):
             columns[name] = ("numbers", np.array(values))
-        elif (first is None or type(first) is str or first in ({}, [])) and \
-                all(type(value) is type(first) and value == first for value in values):
+        elif len(types) == 1 and (first is None or type(first) is str or first in ({}, [])) \
+                and values.count(first) == len(values):
             columns[name] = ("same", first)  # a method's name, None, an empty mapping or list
         else:
             columns[name] = ("list", values)
     return type(answers[0]), columns
+
+
+_SHAPE, _DTYPE = attrgetter("shape"), attrgetter("dtype")
 
 
 def _rows(kind, columns) -> list:
