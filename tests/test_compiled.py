@@ -202,7 +202,8 @@ def test_pose_errors_twins_give_the_same_bits():
         outputs = []
         for twin in (geometry._python_pose_errors, geometry._compiled_pose_errors):
             errors = np.empty(8)
-            exact = twin(reached.homogeneous, target.translation, rotation, errors)
+            *norms, exact = twin(reached.homogeneous, target.translation, rotation, errors[:3], errors[3:6])
+            errors[6:] = norms
             outputs.append((exact, errors.tobytes()))
         assert outputs[0] == outputs[1]
         exact, errors = outputs[0][0], np.frombuffer(outputs[0][1])
@@ -251,15 +252,16 @@ def test_pose_errors_refuses_wrong_buffers():
     from wbik import geometry
 
     pose = random_pose(np.random.default_rng(3))
+    three = np.empty(3)
     with pytest.raises(TypeError, match="position"):
-        geometry._compiled_pose_errors(pose, np.zeros(4), None, np.empty(8))
+        geometry._compiled_pose_errors(pose, np.zeros(4), None, three, three.copy())
     with pytest.raises(TypeError, match="rotation"):
-        geometry._compiled_pose_errors(pose, np.zeros(3), np.eye(4), np.empty(8))
-    with pytest.raises(TypeError, match="errors"):
-        geometry._compiled_pose_errors(pose, np.zeros(3), None, np.empty(8, dtype=np.float32))
-    with pytest.raises(TypeError, match="errors: expected a writable C-contiguous array"):
-        geometry._compiled_pose_errors(pose, np.zeros(3), None, np.empty(16)[::2])
-    read_only = np.empty(8)
+        geometry._compiled_pose_errors(pose, np.zeros(3), np.eye(4), three, three.copy())
+    with pytest.raises(TypeError, match="position_error"):
+        geometry._compiled_pose_errors(pose, np.zeros(3), None, np.empty(3, dtype=np.float32), three)
+    with pytest.raises(TypeError, match="rotation_error: expected a writable C-contiguous array"):
+        geometry._compiled_pose_errors(pose, np.zeros(3), None, three, np.empty(6)[::2])
+    read_only = np.empty(3)
     read_only.flags.writeable = False
-    with pytest.raises(TypeError, match="errors: expected a writable C-contiguous array"):
-        geometry._compiled_pose_errors(pose, np.zeros(3), None, read_only)
+    with pytest.raises(TypeError, match="position_error: expected a writable C-contiguous array"):
+        geometry._compiled_pose_errors(pose, np.zeros(3), None, read_only, three)

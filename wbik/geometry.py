@@ -138,19 +138,19 @@ def plain_pose_errors(reached: list[float], position: list[float], rotation: lis
 
 
 def _python_pose_errors(reached: np.ndarray, position: np.ndarray, rotation: np.ndarray | None,
-                        errors: np.ndarray) -> bool:
-    """The shared FK check's errors of a reached 4x4 pose on a target, written into ``errors`` (8,) as
-    :func:`plain_pose_errors` gives them; returns its ``exact``. Compiled twin:
-    ``wbik.kernels._pose.pose_errors``, the same bits."""
+                        position_error: np.ndarray, rotation_error: np.ndarray) -> tuple[float, float, bool]:
+    """The shared FK check's errors of a reached 4x4 pose on a target, as :func:`plain_pose_errors` gives
+    them: e_p into ``position_error``, e_R into ``rotation_error``; returns (|e_p|, |e_R|, exact).
+    Compiled twin: ``wbik.kernels._pose.pose_errors``, the same bits."""
     values, exact = plain_pose_errors(reached.ravel().tolist(), position.tolist(),
                                       None if rotation is None else rotation.ravel().tolist())
-    errors[:] = values
-    return exact
+    position_error[:], rotation_error[:] = values[:3], values[3:6]
+    return values[6], values[7], exact
 
 
 _compiled_pose_errors = compiled_twin("pose", "pose_errors")
 pose_errors = chosen(_python_pose_errors, _compiled_pose_errors, "pose")
-"""pose_errors(reached, position, rotation, errors) -> exact (see the Python twin)."""
+"""pose_errors(reached, position, rotation, position_error, rotation_error) -> (|e_p|, |e_R|, exact)."""
 
 
 def rotation_angle(reached: np.ndarray, target: np.ndarray) -> float:

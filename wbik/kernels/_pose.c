@@ -15,14 +15,14 @@
 #include "_pose_errors.h"
 #include <math.h>
 
-/* pose_errors(reached, position, rotation, errors) -> bool
+/* pose_errors(reached, position, rotation, position_error, rotation_error) -> (|e_p|, |e_R|, exact)
  * reached: the reached pose's 4x4 homogeneous matrix; position (3,) and rotation (3, 3) or None: the target.
- * Writes (e_p, e_R, |e_p|, |e_R|) into errors (8,): e_p = p - p*, e_R = log3(R*^T R) in the batched check's
- * formula (0 for a position-only target). False where that formula loses the axis (|vee| < 1e-6 near a
- * half turn, geometry.batch_log3's rule): e_p and |e_p| are written, the caller takes Pinocchio's log3. */
+ * Writes e_p = p - p* into position_error (3,) and e_R = log3(R*^T R) in the batched check's formula into
+ * rotation_error (3,) (0 for a position-only target). exact is False where that formula loses the axis
+ * (|vee| < 1e-6 near a half turn, geometry.batch_log3's rule): the caller then takes Pinocchio's log3. */
 static PyObject *pose_errors_of(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (check_count("pose_errors", nargs, 4) < 0)
+    if (check_count("pose_errors", nargs, 5) < 0)
         return NULL;
     double reached[16], position[3], rotation[9], errors[8];
     if (read_doubles(args[0], reached, 4, 4, "reached") < 0 || read_doubles(args[1], position, 3, 0, "position") < 0)
@@ -43,9 +43,14 @@ static PyObject *pose_errors_of(PyObject *self, PyObject *const *args, Py_ssize_
             return NULL;
         exact = !pose_errors(reached_p, reached_r, position, rotation, errors);
     }
-    if (write_doubles(args[3], errors, 8, "errors") < 0)
+    if (write_doubles(args[3], errors, 3, "position_error") < 0 || write_doubles(args[4], errors + 3, 3, "rotation_error") < 0)
         return NULL;
-    return PyBool_FromLong(exact);
+    PyObject *position_norm = PyFloat_FromDouble(errors[6]), *rotation_norm = PyFloat_FromDouble(errors[7]);
+    PyObject *result = position_norm && rotation_norm
+                       ? PyTuple_Pack(3, position_norm, rotation_norm, exact ? Py_True : Py_False) : NULL;
+    Py_XDECREF(position_norm);
+    Py_XDECREF(rotation_norm);
+    return result;
 }
 
 /* A float64 1-D array of `count` values, else 0 (and no error set): the fast paths' shape test. */
@@ -132,8 +137,8 @@ static PyMethodDef methods[] = {
     {"plain_se3", (PyCFunction)(void (*)(void))plain_se3, METH_FASTCALL,
      "plain_se3(matrix, bound, tolerance) -> bool: the fast-path test of wbik.targets.as_target"},
     {"pose_errors", (PyCFunction)(void (*)(void))pose_errors_of, METH_FASTCALL,
-     "pose_errors(reached, position, rotation, errors) -> bool: the shared check's errors (e_p, e_R, |e_p|, "
-     "|e_R|)"},
+     "pose_errors(reached, position, rotation, position_error, rotation_error) -> (|e_p|, |e_R|, exact): the "
+     "shared check's errors"},
     {"inside_limits", (PyCFunction)(void (*)(void))inside_limits, METH_FASTCALL,
      "inside_limits(q, lower, upper) -> bool: finite float64 joints within their limits"},
     {"finite_vector", (PyCFunction)(void (*)(void))finite_vector, METH_FASTCALL,

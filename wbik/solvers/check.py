@@ -104,17 +104,17 @@ def judged(target: Target, inside: np.ndarray, reached: np.ndarray, candidate: C
            reason: str, tolerances: Tolerances, time_s: float, method: str) -> IKResult:
     """The result of joints ``inside`` the limits whose tip pose is ``reached`` (4 x 4): their errors
     (:func:`wbik.geometry.pose_errors`; Pinocchio's log3 near a half turn) against the tolerances."""
-    errors = np.empty(8)  # e_p, e_R, |e_p|, |e_R|
-    rotation = target.rotation
-    if not pose_errors(reached, target.position, rotation, errors):  # the formula lost the axis
-        errors[3:6] = pin.log3(rotation.T.dot(reached[:3, :3]))
-        errors[7] = math.hypot(*errors[3:6].tolist())
-    position_norm, rotation_norm = errors.item(6), errors.item(7)
+    position_xyz, rotation_xyz, rotation = np.empty(3), np.empty(3), target.rotation
+    position_norm, rotation_norm, exact = pose_errors(reached, target.position, rotation, position_xyz,
+                                                      rotation_xyz)
+    if not exact:  # the formula lost the axis near a half turn
+        rotation_xyz = pin.log3(rotation.T.dot(reached[:3, :3]))
+        rotation_norm = math.hypot(*rotation_xyz.tolist())
     success = position_norm <= tolerances.position and rotation_norm <= tolerances.rotation
     if not success:
         reason = reason or fk_check_reason(position_norm, rotation_norm)
-    return IKResult(inside, success, "" if success else reason, position_norm, rotation_norm, errors[:3],
-                    errors[3:6], time_s, candidate.iterations, method, candidate.extra)
+    return IKResult(inside, success, "" if success else reason, position_norm, rotation_norm, position_xyz,
+                    rotation_xyz, time_s, candidate.iterations, method, candidate.extra)
 
 
 def evaluate_screened(chain: Chain, target: Target | np.ndarray, parts: np.ndarray, extra: dict,
