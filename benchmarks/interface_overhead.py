@@ -2,7 +2,11 @@
 check and the IKResult, measured with a trivial method (it returns its start) and printed beside
 one Pinocchio FK of the same chain, timed in the same process.
 
-    .venv/bin/python benchmarks/interface_overhead.py [--calls 5000] [--rounds 15]
+    .venv/bin/python benchmarks/interface_overhead.py [--calls 5000] [--rounds 15] [--phases]
+
+``--phases`` adds where one trivial ``solve`` of each chain spends its microseconds: each step of the
+path timed alone on the same inputs (best of the rounds), and the rest (Python between them: calls,
+attribute reads, the branch tests).
 
 ``ratios(quick)`` (for ``benchmarks/all.py``): per chain, the overhead against wbik's bound of
 5 us per call ("interface overhead <= 5 us per call"), and, informational, against one
@@ -13,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 import timeit
 from collections.abc import Callable
 from pathlib import Path
@@ -22,6 +27,7 @@ import pinocchio as pin
 
 import wbik
 from wbik.solvers.base import Solver
+from wbik.solvers.check import inside_limits, judged
 from wbik.solvers.result import Candidate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -70,6 +76,44 @@ class Loops:
                       "fk": lambda: pin.framesForwardKinematics(chain.model, chain.data, q)}
 
 
+PHASES = ("as_target", "start joints (check_q)", "the clock (2 perf_counter)", "the method",
+          "inside the limits (test, copy)", "FK (Pinocchio, the tip's 4 x 4)",
+          "errors (base frame) and IKResult")
+"""The steps of a chain target's ``solve`` with the trivial method, in order (``--phases``)."""
+
+
+def phase_loops(robot_name: str, chain_name: str) -> dict[str, Callable[[], object]]:
+    """Each of :data:`PHASES` as a loop body on a chain's mid-range pose, and the whole ``solve``."""
+    robot = wbik.load(robot_name)
+    chain = robot.chain(chain_name)
+    solver = Trivial(robot, chain_name)
+    q = chain.mid_range.copy()
+    target = chain.fk(q)
+    kind = wbik.as_target(target)
+    candidate = Candidate(q, 0)
+    reached, base_inverse = chain.root_tip(q), chain.base_inverse_matrix
+    tolerances = solver.tolerances
+    clock = time.perf_counter
+    bodies = (lambda: wbik.as_target(target), lambda: chain.check_q(q), lambda: (clock(), clock()),
+              lambda: solver._solve(kind, q, np.inf),
+              lambda: inside_limits(q, chain.lower, chain.upper) and q.copy(),
+              lambda: chain.root_tip(q),
+              lambda: judged(kind, q, reached, candidate, "", tolerances, 0.0, solver.name, base_inverse))
+    return {"solve": lambda: solver.solve(target, q), **dict(zip(PHASES, bodies, strict=True))}
+
+
+def measure_phases(calls: int, rounds: int) -> dict[str, dict[str, float]]:
+    """{chain: {"solve", each phase: seconds per call}}, best of ``rounds`` interleaved rounds."""
+    loops = {(f"{robot}.{chain}", label): body for robot, chain in CHAINS
+             for label, body in phase_loops(robot, chain).items()}
+    best = best_of_rounds({key: (lambda body=body: timeit.timeit(body, number=calls) / calls)
+                           for key, body in loops.items()}, rounds)
+    found: dict[str, dict[str, float]] = {}
+    for (name, label), seconds in best.items():
+        found.setdefault(name, {})[label] = seconds
+    return found
+
+
 def measure(calls: int, rounds: int = ROUNDS) -> dict[str, dict[str, float]]:
     """{chain: {"solve", "method", "fk": seconds per call}}: each loop's best over ``rounds``
     interleaved rounds of ``calls`` calls (every loop of every chain once per round)."""
@@ -104,6 +148,8 @@ def main() -> None:
     parser.add_argument("--calls", type=int, default=5000, help="calls per loop and round")
     parser.add_argument("--rounds", type=int, default=ROUNDS,
                         help="interleaved rounds; each loop keeps its best")
+    parser.add_argument("--phases", action="store_true",
+                        help="also time each step of a trivial solve alone (where the microseconds go)")
     args = parser.parse_args()
     print(f"{'chain':22s} {'solve (us)':>11s} {'method (us)':>12s} {'overhead (us)':>14s} "
           f"{'one FK (us)':>12s} {'overhead / FK':>14s}")
@@ -114,6 +160,15 @@ def main() -> None:
               f"{overhead * 1e6:14.2f} {fk * 1e6:12.2f} {overhead / fk:14.1f}")
     print("overhead = solve - method: as_target (SE3 checked in plain floats), start joints, timing, "
           "clip into the limits, one FK, log3, the shared check and the IKResult.")
+    if args.phases:
+        print(f"\nwhere one trivial solve's time goes (us, each step alone, best of {args.rounds} rounds):")
+        timings = measure_phases(args.calls, args.rounds)
+        names = list(timings)
+        print(f"{'step':34s}" + "".join(f"{name:>19s}" for name in names))
+        for label in (*PHASES, "rest (Python between the steps)", "solve"):
+            values = [timings[name]["solve"] - sum(timings[name][p] for p in PHASES)
+                      if label.startswith("rest") else timings[name][label] for name in names]
+            print(f"{label:34s}" + "".join(f"{value * 1e6:19.2f}" for value in values))
 
 
 if __name__ == "__main__":

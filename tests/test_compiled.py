@@ -202,7 +202,8 @@ def test_pose_errors_twins_give_the_same_bits():
         outputs = []
         for twin in (geometry._python_pose_errors, geometry._compiled_pose_errors):
             errors = np.empty(8)
-            *norms, exact = twin(reached.homogeneous, target.translation, rotation, errors[:3], errors[3:6])
+            *norms, exact = twin(reached.homogeneous, target.translation, rotation, errors[:3], errors[3:6],
+                                 None)
             errors[6:] = norms
             outputs.append((exact, errors.tobytes()))
         assert outputs[0] == outputs[1]
@@ -221,6 +222,53 @@ def test_pose_errors_twins_give_the_same_bits():
             bound = 1e-14 if index % 2 and index % 3 else 1e-13 * (1.0 + angle) / max(np.sin(angle), 1e-6)
             np.testing.assert_allclose(errors[3:6], log3, rtol=0, atol=bound)
             assert errors[7] == pytest.approx(angle, rel=0, abs=bound)
+
+
+@COMPILED_TWIN
+@pytest.mark.numerics
+def test_pose_errors_in_a_base_frame():
+    """With a base's inverse placement B^-1 (a chain whose base is not the model's root), the twins give the
+    same bits, and the errors are those of Pinocchio's B^-1 W (W: the tip in the root frame) to rounding."""
+    from wbik import geometry
+
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        base = pin.SE3(pin.exp3(rng.normal(size=3)), rng.uniform(-1.0, 1.0, 3))
+        world = pin.SE3(pin.exp3(rng.normal(size=3)), rng.uniform(-2.0, 2.0, 3))
+        in_base = base.inverse() * world
+        target = in_base * pin.exp6(pin.Motion(10.0 ** rng.uniform(-12, -2) * rng.normal(size=6)))
+        outputs = []
+        for twin in (geometry._python_pose_errors, geometry._compiled_pose_errors):
+            errors = np.empty(8)
+            *norms, exact = twin(world.homogeneous, target.translation, target.rotation, errors[:3],
+                                 errors[3:6], base.inverse().homogeneous)
+            errors[6:] = norms
+            outputs.append((exact, errors.tobytes()))
+        assert outputs[0] == outputs[1] and outputs[0][0]
+        errors = np.frombuffer(outputs[0][1])
+        np.testing.assert_allclose(errors[:3], in_base.translation - target.translation, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(errors[3:6], geometry.rotation_error(in_base.rotation, target.rotation),
+                                   rtol=0, atol=1e-14)
+
+
+def test_the_check_of_a_chain_with_a_moved_base_agrees_with_its_general_path(rng):
+    """The shared check's fast path (the tip in the root frame, the base's inverse applied in the errors'
+    kernel) and its general path (the base-frame FK a method hands over) give the same verdicts and errors
+    to rounding on the Bioloid's leg, whose base frame is not the model's root."""
+    import wbik
+    from wbik.solvers.check import evaluate
+    from wbik.solvers.result import Candidate, Tolerances
+
+    chain = wbik.load("bioloid").chain("right_leg")
+    assert chain.base_inverse_matrix is not None
+    for q in chain.random(rng, 50):
+        target = wbik.as_target(chain.fk(chain.random(rng)) if rng.random() < 0.5 else chain.fk(q))
+        fast = evaluate(chain, target, Candidate(q.copy()), Tolerances(), 0.0, "test")
+        general = evaluate(chain, target, Candidate(q.copy()), Tolerances(), 0.0, "test",
+                           reached=chain.fk(q).homogeneous)
+        assert fast.success == general.success and np.array_equal(fast.q, general.q)
+        np.testing.assert_allclose(fast.position_error_xyz, general.position_error_xyz, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(fast.rotation_error_xyz, general.rotation_error_xyz, rtol=0, atol=1e-13)
 
 
 @COMPILED_TWIN
@@ -254,14 +302,14 @@ def test_pose_errors_refuses_wrong_buffers():
     pose = random_pose(np.random.default_rng(3))
     three = np.empty(3)
     with pytest.raises(TypeError, match="position"):
-        geometry._compiled_pose_errors(pose, np.zeros(4), None, three, three.copy())
+        geometry._compiled_pose_errors(pose, np.zeros(4), None, three, three.copy(), None)
     with pytest.raises(TypeError, match="rotation"):
-        geometry._compiled_pose_errors(pose, np.zeros(3), np.eye(4), three, three.copy())
+        geometry._compiled_pose_errors(pose, np.zeros(3), np.eye(4), three, three.copy(), None)
     with pytest.raises(TypeError, match="position_error"):
-        geometry._compiled_pose_errors(pose, np.zeros(3), None, np.empty(3, dtype=np.float32), three)
+        geometry._compiled_pose_errors(pose, np.zeros(3), None, np.empty(3, dtype=np.float32), three, None)
     with pytest.raises(TypeError, match="rotation_error: expected a writable C-contiguous array"):
-        geometry._compiled_pose_errors(pose, np.zeros(3), None, three, np.empty(6)[::2])
+        geometry._compiled_pose_errors(pose, np.zeros(3), None, three, np.empty(6)[::2], None)
     read_only = np.empty(3)
     read_only.flags.writeable = False
     with pytest.raises(TypeError, match="position_error: expected a writable C-contiguous array"):
-        geometry._compiled_pose_errors(pose, np.zeros(3), None, read_only, three)
+        geometry._compiled_pose_errors(pose, np.zeros(3), None, read_only, three, None)

@@ -138,19 +138,36 @@ def plain_pose_errors(reached: list[float], position: list[float], rotation: lis
 
 
 def _python_pose_errors(reached: np.ndarray, position: np.ndarray, rotation: np.ndarray | None,
-                        position_error: np.ndarray, rotation_error: np.ndarray) -> tuple[float, float, bool]:
-    """The shared FK check's errors of a reached 4x4 pose on a target, as :func:`plain_pose_errors` gives
-    them: e_p into ``position_error``, e_R into ``rotation_error``; returns (|e_p|, |e_R|, exact).
-    Compiled twin: ``wbik.kernels._pose.pose_errors``, the same bits."""
-    values, exact = plain_pose_errors(reached.ravel().tolist(), position.tolist(),
+                        position_error: np.ndarray, rotation_error: np.ndarray,
+                        base_inverse: np.ndarray | None) -> tuple[float, float, bool]:
+    """The shared FK check's errors of a reached 4x4 pose (taken as ``base_inverse`` @ ``reached`` where
+    that 4x4 rigid transform is given) on a target, as :func:`plain_pose_errors` gives them: e_p into
+    ``position_error``, e_R into ``rotation_error``; returns (|e_p|, |e_R|, exact). Compiled twin:
+    ``wbik.kernels._pose.pose_errors``, the same bits."""
+    pose = reached.ravel().tolist()
+    if base_inverse is not None:
+        pose = plain_composed(base_inverse.ravel().tolist(), pose)
+    values, exact = plain_pose_errors(pose, position.tolist(),
                                       None if rotation is None else rotation.ravel().tolist())
     position_error[:], rotation_error[:] = values[:3], values[3:6]
     return values[6], values[7], exact
 
 
+def plain_composed(first: list[float], second: list[float]) -> list[float]:
+    """The top 12 values (row by row) of the product of two 4x4 rigid transforms given row by row: each
+    entry sum_k a_ik b_kj over k = 0, 1, 2 in order, the translation a_i3 added last."""
+    composed = []
+    for i in range(3):
+        a0, a1, a2, a3 = first[4 * i:4 * i + 4]
+        composed += [a0 * second[j] + a1 * second[4 + j] + a2 * second[8 + j] for j in range(3)]
+        composed.append(a0 * second[3] + a1 * second[7] + a2 * second[11] + a3)
+    return composed
+
+
 _compiled_pose_errors = compiled_twin("pose", "pose_errors")
 pose_errors = chosen(_python_pose_errors, _compiled_pose_errors, "pose")
-"""pose_errors(reached, position, rotation, position_error, rotation_error) -> (|e_p|, |e_R|, exact)."""
+"""pose_errors(reached, position, rotation, position_error, rotation_error, base_inverse) -> (|e_p|, |e_R|,
+exact), see the Python twin."""
 
 
 def rotation_angle(reached: np.ndarray, target: np.ndarray) -> float:

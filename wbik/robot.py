@@ -147,6 +147,8 @@ class Chain:
         self._base_inverse = self.base_placement.inverse()
         self._base_is_identity = bool(self.base_placement.isIdentity())
         self._base_rotation_t = self.base_placement.rotation.T.copy()
+        self.base_inverse_matrix = None if self._base_is_identity else self._base_inverse.homogeneous
+        """None where the base frame is the model's root frame, else its inverse placement (4 x 4)."""
         self.lower = robot.model.lowerPositionLimit[self.q_index].copy()
         self.upper = robot.model.upperPositionLimit[self.q_index].copy()
         self.velocity_limit = robot.model.velocityLimit[self.v_index].copy()
@@ -187,6 +189,13 @@ class Chain:
         pin.forwardKinematics(model, data, q)
         tip = pin.updateFramePlacement(model, data, self.tip_id)  # a copy, not a view into data
         return tip if self._base_is_identity else self._base_inverse * tip
+
+    def root_tip(self, q: np.ndarray) -> np.ndarray:
+        """The tip frame's 4 x 4 pose in the model's root frame (:attr:`base_inverse_matrix` takes it into the
+        base frame); only the tip frame is placed."""
+        model, data = self.model, self.data  # (data: a per-thread lookup, once)
+        pin.forwardKinematics(model, data, q)
+        return pin.updateFramePlacement(model, data, self.tip_id).homogeneous
 
     def fk_jacobian(self, q: np.ndarray) -> tuple[pin.SE3, np.ndarray]:
         """(tip pose, 6 x n Jacobian [v; w]) in base-frame axes, v taken at the tip origin."""

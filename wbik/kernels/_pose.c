@@ -14,19 +14,33 @@
 #include "_buffers.h"
 #include "_pose_errors.h"
 #include <math.h>
+#include <string.h>
 
-/* pose_errors(reached, position, rotation, position_error, rotation_error) -> (|e_p|, |e_R|, exact)
- * reached: the reached pose's 4x4 homogeneous matrix; position (3,) and rotation (3, 3) or None: the target.
+/* pose_errors(reached, position, rotation, position_error, rotation_error, base_inverse) -> (|e_p|, |e_R|, exact)
+ * reached: the reached pose's 4x4 homogeneous matrix; position (3,) and rotation (3, 3) or None: the target;
+ * base_inverse: None, or a 4x4 rigid transform B^-1 applied first (the reached pose taken as B^-1 reached, the
+ * top three rows, each entry summed over k in order, the translation added last).
  * Writes e_p = p - p* into position_error (3,) and e_R = log3(R*^T R) in the batched check's formula into
  * rotation_error (3,) (0 for a position-only target). exact is False where that formula loses the axis
  * (|vee| < 1e-6 near a half turn, geometry.batch_log3's rule): the caller then takes Pinocchio's log3. */
 static PyObject *pose_errors_of(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (check_count("pose_errors", nargs, 5) < 0)
+    if (check_count("pose_errors", nargs, 6) < 0)
         return NULL;
     double reached[16], position[3], rotation[9], errors[8];
     if (read_doubles(args[0], reached, 4, 4, "reached") < 0 || read_doubles(args[1], position, 3, 0, "position") < 0)
         return NULL;
+    if (args[5] != Py_None) {
+        double base[16], moved[12];
+        if (read_doubles(args[5], base, 4, 4, "base_inverse") < 0)
+            return NULL;
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 4; j++) {
+                double sum = base[4 * i] * reached[j] + base[4 * i + 1] * reached[4 + j] + base[4 * i + 2] * reached[8 + j];
+                moved[4 * i + j] = j == 3 ? sum + base[4 * i + 3] : sum;
+            }
+        memcpy(reached, moved, sizeof(moved));
+    }
     const double reached_p[3] = {reached[3], reached[7], reached[11]};
     const double reached_r[9] = {reached[0], reached[1], reached[2], reached[4], reached[5], reached[6],
                                  reached[8], reached[9], reached[10]};
@@ -137,8 +151,8 @@ static PyMethodDef methods[] = {
     {"plain_se3", (PyCFunction)(void (*)(void))plain_se3, METH_FASTCALL,
      "plain_se3(matrix, bound, tolerance) -> bool: the fast-path test of wbik.targets.as_target"},
     {"pose_errors", (PyCFunction)(void (*)(void))pose_errors_of, METH_FASTCALL,
-     "pose_errors(reached, position, rotation, position_error, rotation_error) -> (|e_p|, |e_R|, exact): the "
-     "shared check's errors"},
+     "pose_errors(reached, position, rotation, position_error, rotation_error, base_inverse) -> (|e_p|, |e_R|, "
+     "exact): the shared check's errors"},
     {"inside_limits", (PyCFunction)(void (*)(void))inside_limits, METH_FASTCALL,
      "inside_limits(q, lower, upper) -> bool: finite float64 joints within their limits"},
     {"finite_vector", (PyCFunction)(void (*)(void))finite_vector, METH_FASTCALL,

@@ -71,8 +71,8 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     q = candidate.q
     if reached is None and not chain.any_continuous and inside_limits(q, chain.lower, chain.upper):
         inside = q.copy()  # the common case: finite joints inside the limits, checked as they are
-        return judged(target, inside, chain.fk(inside).homogeneous, candidate, candidate.reason,
-                      tolerances, time_s, method)
+        return judged(target, inside, chain.root_tip(inside), candidate, candidate.reason, tolerances,
+                      time_s, method, chain.base_inverse_matrix)
     if q is None:
         return no_joints(candidate.reason or "no solution", time_s, candidate, method)
     if type(q) is not np.ndarray or q.dtype != np.float64:
@@ -100,15 +100,18 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     return result
 
 
-def judged(target: Target, inside: np.ndarray, reached: np.ndarray, candidate: Candidate,
-           reason: str, tolerances: Tolerances, time_s: float, method: str) -> IKResult:
-    """The result of joints ``inside`` the limits whose tip pose is ``reached`` (4 x 4): their errors
-    (:func:`wbik.geometry.pose_errors`; Pinocchio's log3 near a half turn) against the tolerances."""
+def judged(target: Target, inside: np.ndarray, reached: np.ndarray, candidate: Candidate, reason: str,
+           tolerances: Tolerances, time_s: float, method: str, base_inverse: np.ndarray | None = None
+           ) -> IKResult:
+    """The result of joints ``inside`` the limits whose tip pose is ``reached`` (4 x 4; in the base frame
+    after ``base_inverse`` where given): their errors (:func:`wbik.geometry.pose_errors`; Pinocchio's
+    log3 near a half turn) against the tolerances."""
     position_xyz, rotation_xyz, rotation = np.empty(3), np.empty(3), target.rotation
     position_norm, rotation_norm, exact = pose_errors(reached, target.position, rotation, position_xyz,
-                                                      rotation_xyz)
+                                                      rotation_xyz, base_inverse)
     if not exact:  # the formula lost the axis near a half turn
-        rotation_xyz = pin.log3(rotation.T.dot(reached[:3, :3]))
+        turned = reached[:3, :3] if base_inverse is None else base_inverse[:3, :3].dot(reached[:3, :3])
+        rotation_xyz = pin.log3(rotation.T.dot(turned))
         rotation_norm = math.hypot(*rotation_xyz.tolist())
     success = position_norm <= tolerances.position and rotation_norm <= tolerances.rotation
     if not success:
