@@ -77,6 +77,50 @@ def test_the_parts_run_in_other_processes(rng):
     assert workers._POOLS[solver][0] is pool  # kept for the solver's next batch
 
 
+def test_a_changed_setting_reaches_every_part(rng):
+    """The caller's part runs with the solver as it is; the forked parts see it as it was at the fork, so
+    a change of a plain setting (here the tolerances) forks them again and every part solves with it."""
+    class Tolerant(DampedLeastSquares):
+        def _solve(self, target, q0, deadline):
+            candidate = super()._solve(target, q0, deadline)
+            candidate.extra["position_tolerance"] = self.tolerances.position
+            return candidate
+
+    with IK_METHOD_REGISTRY.isolated():
+        register_method(IKMethod("tolerant_test", Tolerant, "test only: records its tolerance"))
+        solver = wbik.solver("tolerant_test", "ur5", chain="arm")
+        targets = _poses(solver.chain, 4, rng)
+        solver.solve_many(targets, workers=2)
+        first_pool = workers._POOLS[solver][0]
+        solver.tolerances = wbik.Tolerances(position=2e-6, rotation=2e-6)
+        answers = solver.solve_many(targets, workers=2)
+    assert [a.extra["position_tolerance"] for a in answers] == [2e-6] * 4
+    assert workers._POOLS[solver][0] is not first_pool
+
+
+def test_answers_travel_as_columns_and_come_back_the_same():
+    """Arrays of one shape and dtype are stacked, numbers gathered, equal names and empty mappings sent once,
+    and anything else (arrays of several shapes, None among arrays) as a list; the rows rebuilt equal."""
+    from wbik.solvers.result import IKResult
+
+    def answer(q, method="m", extra=None):
+        return IKResult(q, q is not None, "", 0.0, 0.0, np.zeros(3), np.zeros(3), 1e-6, 1, method,
+                        extra or {})
+
+    batches = {"rows": [answer(np.zeros(3)), answer(np.ones(3))],
+               "list": [answer(np.zeros(3)), answer(np.ones(4))],
+               "mixed": [answer(np.zeros(3)), answer(None)]}
+    for expected, answers in batches.items():
+        kind, columns = workers._columns(answers)
+        assert kind is IKResult and columns["q"][0] == ("list" if expected == "mixed" else expected)
+        assert columns["method"] == ("same", "m") and columns["extra"] == ("same", {})
+        back = workers._rows(kind, columns)
+        for a, b in zip(answers, back, strict=True):
+            assert (a.q is None and b.q is None) or np.array_equal(a.q, b.q)
+            assert (a.success, a.method, a.extra, a.time_s) == (b.success, b.method, b.extra, b.time_s)
+        assert back[0].extra is not back[1].extra  # each answer its own mapping
+
+
 @pytest.mark.parametrize("count", [0, -1, 1.5, True, "two"])
 def test_a_bad_worker_count_is_refused(count):
     solver = wbik.solver("analytic", "ur5", chain="arm")

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import math
 import os
 import threading
 import weakref
@@ -59,8 +58,7 @@ CachedT = TypeVar("CachedT")
 def _python_finite_vector(q, n: int) -> bool:
     """Whether ``q`` is a float64 (n,) array of finite values (compiled twin:
     ``wbik.kernels._pose.finite_vector``)."""
-    return (type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,)
-            and math.isfinite(float(q.dot(q))))
+    return type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and bool(np.isfinite(q).all())
 
 
 finite_vector = chosen(_python_finite_vector, compiled_twin("pose", "finite_vector"), "pose")
@@ -148,6 +146,8 @@ class Chain:
         self._base_is_identity = bool(self.base_placement.isIdentity())
         self._base_rotation_t = self.base_placement.rotation.T.copy()
         self.base_inverse_matrix = None if self._base_is_identity else self._base_inverse.homogeneous
+        if self.base_inverse_matrix is not None:
+            self.base_inverse_matrix.flags.writeable = False
         """None where the base frame is the model's root frame, else its inverse placement (4 x 4)."""
         self.lower = robot.model.lowerPositionLimit[self.q_index].copy()
         self.upper = robot.model.upperPositionLimit[self.q_index].copy()

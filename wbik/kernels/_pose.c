@@ -67,9 +67,14 @@ static PyObject *pose_errors_of(PyObject *self, PyObject *const *args, Py_ssize_
     return result;
 }
 
-/* A float64 1-D array of `count` values, else 0 (and no error set): the fast paths' shape test. */
+static PyObject *ndarray_type; /* numpy.ndarray, read when the module is imported */
+
+/* A numpy.ndarray itself (no subclass, no other buffer) of `count` float64 values along one axis, else 0
+ * (and no error set): the fast paths' test, as their Python twins' `type(q) is np.ndarray`. */
 static int plain_vector(PyObject *object, Py_buffer *view, Py_ssize_t count)
 {
+    if ((PyObject *)Py_TYPE(object) != ndarray_type)
+        return 0;
     if (float64_view(object, view, 0, "") < 0) {
         PyErr_Clear();
         return 0;
@@ -80,8 +85,8 @@ static int plain_vector(PyObject *object, Py_buffer *view, Py_ssize_t count)
     return 0;
 }
 
-/* inside_limits(q, lower, upper) -> bool: q a float64 (n,) array of finite values with lower <= q <= upper
- * (lower and upper: float64 (n,)); False for anything else, which the general path then judges. */
+/* inside_limits(q, lower, upper) -> bool: q a numpy float64 (n,) array of finite values with lower <= q <= upper
+ * (lower and upper: the same); False for anything else, which the general path then judges. */
 static PyObject *inside_limits(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (check_count("inside_limits", nargs, 3) < 0)
@@ -105,7 +110,7 @@ static PyObject *inside_limits(PyObject *self, PyObject *const *args, Py_ssize_t
     return PyBool_FromLong(inside);
 }
 
-/* finite_vector(q, n) -> bool: q a float64 (n,) array of finite values. */
+/* finite_vector(q, n) -> bool: q a numpy float64 (n,) array of finite values. */
 static PyObject *finite_vector(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (check_count("finite_vector", nargs, 2) < 0)
@@ -163,4 +168,14 @@ static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_pose",
                                     "Compiled twins of the interface's pose arithmetic (wbik.kernels).", -1,
                                     methods};
 
-PyMODINIT_FUNC PyInit__pose(void) { return PyModule_Create(&module); }
+PyMODINIT_FUNC PyInit__pose(void)
+{
+    PyObject *numpy = PyImport_ImportModule("numpy");
+    if (numpy == NULL)
+        return NULL;
+    ndarray_type = PyObject_GetAttrString(numpy, "ndarray"); /* kept for the module's life */
+    Py_DECREF(numpy);
+    if (ndarray_type == NULL)
+        return NULL;
+    return PyModule_Create(&module);
+}

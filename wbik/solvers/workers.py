@@ -3,23 +3,28 @@ batch at once, the first in this process and the others in N - 1 processes forke
 method's own batched path on its part, and joins the answers in order. The solver is inherited by the
 fork, never pickled; SE3 targets travel as one array of 4 x 4 matrices and the answers as columns (a
 field's arrays stacked, its numbers in one array), a few microseconds an answer, so a part pays where a
-pose costs more than that. Every part's BLAS runs on its share of the cores. The processes are forked on
-a solver's first such call and kept for its later calls until it is garbage collected (they see the
-solver as it was then)."""
+pose costs more than that. Every part's BLAS runs on its share of the cores (in the caller, for the
+length of the call: other threads' BLAS too). The processes are forked on a solver's first such call and
+kept for its later calls until it is garbage collected; a change of the solver's plain settings (numbers,
+strings, tolerances) forks them again, so that every part solves with the settings of the call."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import multiprocessing
 import os
+import threading
 import weakref
 from concurrent.futures import ProcessPoolExecutor
 from operator import attrgetter
 
 import numpy as np
 import pinocchio as pin
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController, threadpool_limits
+
+from wbik.solvers.result import Tolerances
 
 LOGGER = logging.getLogger("wbik.workers")
 
@@ -49,15 +54,45 @@ def solve_in_workers(solver, targets: list, q0s, workers: int) -> list:
         futures = [executor.submit(_solve_part, id(solver),
                                    matrices[part - len(own)] if se3 else [targets[i] for i in part],
                                    np.asarray(q0s)[part] if per_row else q0s) for part in others]
-    with threadpool_limits(_share(workers), user_api="blas"):
+    with _caller_share(workers):
         answers = solver._solve_targets(targets[:len(own)], np.asarray(q0s)[own] if per_row else q0s)
     return answers + [answer for future in futures for answer in _rows(*future.result())]
 
 
+_SHARING = threading.Lock()
+_SHARED: dict[str, object] = {"calls": 0, "limits": None, "controller": None}
+
+
+@contextlib.contextmanager
+def _caller_share(workers: int):
+    """BLAS on the caller's share of the cores while its part runs: set by the first of concurrent calls,
+    restored by the last (threadpoolctl restores what it found, so nested limits would not unwind)."""
+    with _SHARING:
+        if not _SHARED["calls"]:
+            if _SHARED["controller"] is None:
+                _SHARED["controller"] = ThreadpoolController()
+            _SHARED["limits"] = _SHARED["controller"].limit(limits=_share(workers), user_api="blas")
+        _SHARED["calls"] += 1
+    try:
+        yield
+    finally:
+        with _SHARING:
+            _SHARED["calls"] -= 1
+            if not _SHARED["calls"]:
+                _SHARED["limits"].restore_original_limits()
+
+
+def _settings(solver) -> tuple:
+    """The solver's plain settings (numbers, strings, tolerances), which its forked processes must share."""
+    return tuple(sorted((name, value) for name, value in vars(solver).items()
+                        if value is None or type(value) in (bool, int, float, str, Tolerances)))
+
+
 def _pool(solver, processes: int) -> ProcessPoolExecutor:
-    """The solver's pool of ``processes`` forked processes (a new one where the count changed)."""
-    kept = _POOLS.get(solver)
-    if kept is not None and kept[1] == processes:
+    """The solver's pool of ``processes`` forked processes (a new one where the count or the solver's
+    settings changed)."""
+    kept, settings = _POOLS.get(solver), _settings(solver)
+    if kept is not None and kept[1:] == (processes, settings):
         return kept[0]
     if kept is not None:
         kept[0].shutdown(wait=False, cancel_futures=True)
@@ -68,7 +103,7 @@ def _pool(solver, processes: int) -> ProcessPoolExecutor:
         executor.submit(int).result()
     finally:
         del _INHERITED[id(solver)]
-    _POOLS[solver] = (executor, processes)
+    _POOLS[solver] = (executor, processes, settings)
     weakref.finalize(solver, executor.shutdown, wait=False, cancel_futures=True)
     return executor
 
@@ -115,8 +150,8 @@ def _columns(answers: list) -> tuple:
             columns[name] = ("rows", np.stack(values))
         elif len(types) == 1 and type(first) in (bool, int, float):
             columns[name] = ("numbers", np.array(values))
-        elif len(types) == 1 and (first is None or type(first) is str or first in ({}, [])) \
-                and values.count(first) == len(values):
+        elif len(types) == 1 and (first is None or type(first) is str or type(first) in (dict, list)
+                                  and not first) and values.count(first) == len(values):
             columns[name] = ("same", first)  # a method's name, None, an empty mapping or list
         else:
             columns[name] = ("list", values)
