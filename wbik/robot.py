@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import math
 import os
 import threading
 import weakref
@@ -58,7 +59,8 @@ CachedT = TypeVar("CachedT")
 def _python_finite_vector(q, n: int) -> bool:
     """Whether ``q`` is a float64 (n,) array of finite values (compiled twin:
     ``wbik.kernels._pose.finite_vector``)."""
-    return type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,) and bool(np.isfinite(q).all())
+    return (type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,)
+            and all(map(math.isfinite, q.tolist())))
 
 
 finite_vector = chosen(_python_finite_vector, compiled_twin("pose", "finite_vector"), "pose")

@@ -56,7 +56,8 @@ def _python_inside_limits(q, lower: np.ndarray, upper: np.ndarray) -> bool:
     ``wbik.kernels._pose.inside_limits``)."""
     if type(q) is not np.ndarray or q.dtype != np.float64 or q.shape != lower.shape or q.ndim != 1:
         return False
-    return bool(np.all(np.isfinite(q)) and np.all(lower <= q) and np.all(q <= upper))
+    return all(low <= value <= high and math.isfinite(value)
+               for value, low, high in zip(q.tolist(), lower.tolist(), upper.tolist(), strict=True))
 
 
 inside_limits = chosen(_python_inside_limits, compiled_twin("pose", "inside_limits"), "pose")
