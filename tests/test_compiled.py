@@ -275,7 +275,7 @@ def test_the_check_of_a_chain_with_a_moved_base_agrees_with_its_general_path(rng
 
 @COMPILED_TWIN
 def test_check_fast_paths_twins_agree():
-    """inside_limits and finite_vector, the fast-path tests of the shared check and of the start joints:
+    """inside_limits and plain_finite, the fast-path tests of the shared check and of the start joints:
     both twins give the same verdict on joints inside, on and outside the limits, non-finite ones and
     arrays of another shape or type (those take the general path, which decides)."""
     from wbik import robot
@@ -292,15 +292,15 @@ def test_check_fast_paths_twins_agree():
     for q in inputs:
         verdicts = {check._python_inside_limits(q, lower, upper), check.inside_limits(q, lower, upper)}
         assert len(verdicts) == 1, q
-        finite = {robot._python_finite_vector(q, 3), robot.finite_vector(q, 3)}
+        finite = {robot._python_plain_finite(q, 3), robot.plain_finite(q, 3)}
         assert len(finite) == 1, q
     for other in inputs[-4:-1]:  # other buffers and subclasses take the general path, which converts them
-        assert not check.inside_limits(other, lower, upper) and not robot.finite_vector(other, 3)
-    assert robot.finite_vector(np.array([1e200, 0.0, 0.1]), 3)  # finite, though its square is not
+        assert not check.inside_limits(other, lower, upper) and not robot.plain_finite(other, 3)
+    assert robot.plain_finite(np.array([1e200, 0.0, 0.1]), 3)  # finite, though its square is not
     assert check.inside_limits(np.array([0.0, 0.0, 0.25]), lower, upper)
     assert not check.inside_limits(np.array([0.0, -2.0000001, 0.1]), lower, upper)
-    assert robot.finite_vector(np.arange(6.0)[::2], 3)
-    assert not robot.finite_vector(np.array([0.0, np.nan, 0.0]), 3)
+    assert robot.plain_finite(np.arange(6.0)[::2], 3)
+    assert not robot.plain_finite(np.array([0.0, np.nan, 0.0]), 3)
 
 
 def test_solve_takes_start_joints_of_any_array_kind():

@@ -56,15 +56,15 @@ class PerThreadData:
 CachedT = TypeVar("CachedT")
 
 
-def _python_finite_vector(q, n: int) -> bool:
+def _python_plain_finite(q, n: int) -> bool:
     """Whether ``q`` is a float64 (n,) array of finite values (compiled twin:
-    ``wbik.kernels._pose.finite_vector``)."""
+    ``wbik.kernels._pose.plain_finite``)."""
     return (type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (n,)
             and all(map(math.isfinite, q.tolist())))
 
 
-finite_vector = chosen(_python_finite_vector, compiled_twin("pose", "finite_vector"), "pose")
-"""finite_vector(q, n) -> bool: the start joints' fast-path test (see the Python twin)."""
+plain_finite = chosen(_python_plain_finite, compiled_twin("pose", "plain_finite"), "pose")
+"""plain_finite(q, n) -> bool: the start joints' fast-path test (see the Python twin)."""
 
 
 class ChainCache:
@@ -177,7 +177,7 @@ class Chain:
 
     def check_q(self, q: Sequence[float]) -> np.ndarray:
         """q as a float array (a copy) of n finite values, or InvalidConfigurationError."""
-        if finite_vector(q, self.nq):  # the common case, fast (docs/measurements.md, robot)
+        if plain_finite(q, self.nq):  # the common case, fast (docs/measurements.md, robot)
             return q.copy()
         array = numeric_array(q, "joint values", InvalidConfigurationError).reshape(-1)
         if array.shape != (self.nq,):

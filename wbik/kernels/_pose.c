@@ -5,8 +5,8 @@
  *   rotation columns, det +1, all within the tolerance?);
  * - pose_errors: the errors of the shared FK check (wbik.geometry._python_pose_errors): p - p*, log3(R*^T R)
  *   in the batched check's formula (_pose_errors.h), and both norms;
- * - inside_limits and finite_vector: the tests of the shared check's and the start joints' fast paths
- *   (wbik.solvers.check._python_inside_limits, wbik.robot._python_finite_vector).
+ * - inside_limits and plain_finite: the tests of the shared check's and the start joints' fast paths
+ *   (wbik.solvers.check._python_inside_limits, wbik.robot._python_plain_finite).
  *
  * The same products and sums in the same order as the Python twins (built with -ffp-contract=off), so
  * both give the same bits; tests/test_compiled.py compares them. wbik.kernels switches between them.
@@ -110,10 +110,10 @@ static PyObject *inside_limits(PyObject *self, PyObject *const *args, Py_ssize_t
     return PyBool_FromLong(inside);
 }
 
-/* finite_vector(q, n) -> bool: q a numpy float64 (n,) array of finite values. */
-static PyObject *finite_vector(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* plain_finite(q, n) -> bool: q a numpy float64 (n,) array of finite values. */
+static PyObject *plain_finite(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (check_count("finite_vector", nargs, 2) < 0)
+    if (check_count("plain_finite", nargs, 2) < 0)
         return NULL;
     Py_ssize_t n = PyLong_AsSsize_t(args[1]);
     if (n == -1 && PyErr_Occurred())
@@ -160,8 +160,8 @@ static PyMethodDef methods[] = {
      "exact): the shared check's errors"},
     {"inside_limits", (PyCFunction)(void (*)(void))inside_limits, METH_FASTCALL,
      "inside_limits(q, lower, upper) -> bool: finite float64 joints within their limits"},
-    {"finite_vector", (PyCFunction)(void (*)(void))finite_vector, METH_FASTCALL,
-     "finite_vector(q, n) -> bool: a float64 (n,) array of finite values"},
+    {"plain_finite", (PyCFunction)(void (*)(void))plain_finite, METH_FASTCALL,
+     "plain_finite(q, n) -> bool: a float64 (n,) array of finite values"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_pose",

@@ -41,7 +41,7 @@ class Kernel:
 KERNELS = (
     Kernel("pose", _pose,
            "wbik.targets._python_accepts_plain_se3, wbik.geometry._python_pose_errors, "
-           "wbik.solvers.check._python_inside_limits, wbik.robot._python_finite_vector",
+           "wbik.solvers.check._python_inside_limits, wbik.robot._python_plain_finite",
            ("interface overhead", "Golem-III closed-form solve", "UR5 closed-form solve")),
     Kernel("ur_type", _ur_type,
            "wbik.solvers.analytic.ur_type.branches_by_joint with "
