@@ -53,3 +53,24 @@ def test_all_benchmarks_report_every_goal_as_a_ratio(tmp_path):
             met = row["ratio"] <= row["limit"] if lower else row["ratio"] >= row["limit"]
             assert row["met"] == met, row
     assert "goals met" in completed.stdout and "machine:" in completed.stdout
+
+
+def test_the_interface_phases_cover_a_solve():
+    """``interface_overhead.py --phases`` times every step of a trivial solve alone on each chain: a row per
+    step, a positive time for each on every chain, each less than the whole solve."""
+    completed = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "interface_overhead.py"),
+                                "--calls", "200", "--rounds", "1", "--phases"],
+                               capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert completed.returncode == 0, completed.stderr[-3000:]
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        from interface_overhead import CHAINS, PHASES
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    table = completed.stdout.split("where one trivial solve's time goes")[1].splitlines()[2:]
+    rows = {line[:34].strip(): [float(value) for value in line[34:].split()]
+            for line in table if line.strip()}
+    assert set(rows) == {*PHASES, "rest (Python between the steps)", "solve"}
+    for label in PHASES:
+        assert len(rows[label]) == len(CHAINS), label
+        assert all(0 < value < whole for value, whole in zip(rows[label], rows["solve"], strict=True)), label
