@@ -58,32 +58,16 @@ machine has slow phases of a second or more (a loop then took up to 1.6x as long
 could all fall inside one, while fifteen rounds spread over all chains rarely do."""
 
 
-class Loops:
-    """One chain's three timed loops: ``solve`` (the trivial method through the interface), ``method``
-    (the trivial method alone) and ``fk`` (one Pinocchio framesForwardKinematics), each on the chain's
-    mid-range pose (so the shared check passes)."""
-
-    def __init__(self, robot_name: str, chain_name: str):
-        robot = wbik.load(robot_name)
-        chain = robot.chain(chain_name)
-        solver = Trivial(robot, chain_name)
-        q = chain.mid_range.copy()
-        target = chain.fk(q)
-        target_kind = wbik.as_target(target)
-        self.name = f"{robot_name}.{chain_name}"
-        self.loops = {"solve": lambda: solver.solve(target, q),
-                      "method": lambda: solver._solve(target_kind, q, np.inf),
-                      "fk": lambda: pin.framesForwardKinematics(chain.model, chain.data, q)}
-
-
 PHASES = ("as_target", "start joints (check_q)", "the clock (2 perf_counter)", "the method",
           "inside the limits (test, copy)", "FK (Pinocchio, the tip's 4 x 4)",
           "errors (base frame) and IKResult")
 """The steps of a chain target's ``solve`` with the trivial method, in order (``--phases``)."""
 
 
-def phase_loops(robot_name: str, chain_name: str) -> dict[str, Callable[[], object]]:
-    """Each of :data:`PHASES` as a loop body on a chain's mid-range pose, and the whole ``solve``."""
+def chain_loops(robot_name: str, chain_name: str) -> dict[str, Callable[[], object]]:
+    """One chain's timed loop bodies on its mid-range pose (so the shared check passes): ``solve`` (the
+    trivial method through the interface), ``method`` (the trivial method alone), ``fk`` (one Pinocchio
+    framesForwardKinematics) and each of :data:`PHASES` alone."""
     robot = wbik.load(robot_name)
     chain = robot.chain(chain_name)
     solver = Trivial(robot, chain_name)
@@ -94,37 +78,31 @@ def phase_loops(robot_name: str, chain_name: str) -> dict[str, Callable[[], obje
     reached, base_inverse = chain.root_tip(q), chain.base_inverse_matrix
     tolerances = solver.tolerances
     clock = time.perf_counter
-    bodies = (lambda: wbik.as_target(target), lambda: chain.check_q(q), lambda: (clock(), clock()),
-              lambda: solver._solve(kind, q, np.inf),
+
+    def method() -> Candidate:
+        return solver._solve(kind, q, np.inf)
+
+    phases = (lambda: wbik.as_target(target), lambda: chain.check_q(q), lambda: (clock(), clock()), method,
               lambda: inside_limits(q, chain.lower, chain.upper) and q.copy(),
               lambda: chain.root_tip(q),
               lambda: judged(kind, q, reached, candidate, "", tolerances, 0.0, solver.name, base_inverse))
-    return {"solve": lambda: solver.solve(target, q), **dict(zip(PHASES, bodies, strict=True))}
+    return {"solve": lambda: solver.solve(target, q), "method": method,
+            "fk": lambda: pin.framesForwardKinematics(chain.model, chain.data, q),
+            **dict(zip(PHASES, phases, strict=True))}
 
 
-def measure_phases(calls: int, rounds: int) -> dict[str, dict[str, float]]:
-    """{chain: {"solve", each phase: seconds per call}}, best of ``rounds`` interleaved rounds."""
+def measure(calls: int, rounds: int = ROUNDS, labels: tuple[str, ...] = ("solve", "method", "fk")
+            ) -> dict[str, dict[str, float]]:
+    """{chain: {label: seconds per call}} for the :func:`chain_loops` named by ``labels``: each loop's best
+    over ``rounds`` interleaved rounds of ``calls`` calls (every loop of every chain once per round)."""
     loops = {(f"{robot}.{chain}", label): body for robot, chain in CHAINS
-             for label, body in phase_loops(robot, chain).items()}
+             for label, body in chain_loops(robot, chain).items() if label in labels}
     best = best_of_rounds({key: (lambda body=body: timeit.timeit(body, number=calls) / calls)
                            for key, body in loops.items()}, rounds)
     found: dict[str, dict[str, float]] = {}
     for (name, label), seconds in best.items():
         found.setdefault(name, {})[label] = seconds
     return found
-
-
-def measure(calls: int, rounds: int = ROUNDS) -> dict[str, dict[str, float]]:
-    """{chain: {"solve", "method", "fk": seconds per call}}: each loop's best over ``rounds``
-    interleaved rounds of ``calls`` calls (every loop of every chain once per round)."""
-    chains = [Loops(robot_name, chain_name) for robot_name, chain_name in CHAINS]
-
-    def per_call(loop) -> Callable[[], float]:
-        return lambda: timeit.timeit(loop, number=calls) / calls
-
-    best = best_of_rounds({(chain.name, label): per_call(loop) for chain in chains
-                           for label, loop in chain.loops.items()}, rounds)
-    return {chain.name: {label: best[(chain.name, label)] for label in chain.loops} for chain in chains}
 
 
 def ratios(quick: bool = False) -> list[Ratio]:
@@ -162,7 +140,7 @@ def main() -> None:
           "clip into the limits, one FK, log3, the shared check and the IKResult.")
     if args.phases:
         print(f"\nwhere one trivial solve's time goes (us, each step alone, best of {args.rounds} rounds):")
-        timings = measure_phases(args.calls, args.rounds)
+        timings = measure(args.calls, args.rounds, ("solve", *PHASES))
         names = list(timings)
         print(f"{'step':34s}" + "".join(f"{name:>19s}" for name in names))
         for label in (*PHASES, "rest (Python between the steps)", "solve"):
