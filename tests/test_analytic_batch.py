@@ -86,7 +86,7 @@ def test_evaluate_batch_decides_as_evaluate(solvers, robot, chain_name, kind, to
     rotations = np.array([t.rotation for t in targets]) if kind == "pose" else None
     tolerances = wbik.Tolerances(tolerance, tolerance)
     batch = evaluate_batch(chain, form, positions, rotations, np.where(found[:, None], q, 0.0), found,
-                           reasons, tolerances, 0.5, "analytic", [{} for _ in range(count)])
+                           reasons, tolerances, 0.5, "analytic", np.zeros(count, dtype=int))
     single = _per_call(chain, targets, q, found, reasons, tolerances)
     assert 0 < sum(r.success for r in single) < count
     for mine, theirs in zip(batch, single, strict=True):

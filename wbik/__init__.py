@@ -26,6 +26,7 @@ from wbik.errors import (
 from wbik.models import load, robots
 from wbik.robot import Chain, ChainSpec, Robot
 from wbik.solvers.base import Solver
+from wbik.solvers.batch_results import IKResults
 from wbik.solvers.check import check_problem
 from wbik.solvers.method import IKMethod
 from wbik.solvers.method_registry import methods, register, solver
@@ -39,8 +40,9 @@ _install_catalog()  # what wbik ships, imported by name when a registry first ne
 __version__ = "0.1.0"
 
 __all__ = [
-    "Chain", "ChainSpec", "IKMethod", "IKResult", "InvalidConfigurationError", "InvalidRotationError",
-    "InvalidTargetError", "MissingDependencyError", "Robot", "RobotDescriptionError", "Solver",
+    "Chain", "ChainSpec", "IKMethod", "IKResult", "IKResults", "InvalidConfigurationError",
+    "InvalidRotationError", "InvalidTargetError", "MissingDependencyError", "Robot", "RobotDescriptionError",
+    "Solver",
     "Target", "Tolerances", "UnknownChainError", "UnknownFrameError", "UnknownMethodError",
     "UnknownRobotError", "UnsupportedError", "WbikError", "as_target", "load", "methods",
     "register", "robots", "solver",

@@ -25,6 +25,7 @@ from wbik.qp.constraint import Constraint
 from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
 from wbik.qp.tasks import FrameTask, PositionTask, RegularizationTask
 from wbik.robot import Chain, Robot
+from wbik.solvers.batch_results import IKResults
 from wbik.solvers.check import check_problem, evaluate
 from wbik.solvers.result import Candidate, IKResult, Tolerances, checked_tolerances
 from wbik.solvers.workers import solve_in_workers
@@ -160,13 +161,15 @@ class Solver(IterationBudget):
                              unsupported=unsupported, extra=candidate.extra)
 
     def solve_many(self, targets: Iterable, q0s: np.ndarray | Sequence | None = None,
-                   workers: int = 1) -> list[IKResult]:
-        """Solve a batch; ``q0s`` is one start for all, one per target, or None. ``workers`` > 1 splits the
-        batch over that many forked processes (:mod:`wbik.solvers.workers`), with the same answers."""
-        targets = list(targets)
+                   workers: int = 1) -> IKResults:
+        """Solve a batch: an IKResult per target, in order, also as columns (:class:`IKResults`). The
+        targets: any of ``solve``'s, or one array of them ((B, 4, 4) poses, (B, 3) positions); ``q0s``: one
+        start for all, one per target, or None. ``workers`` > 1 splits the batch over that many forked
+        processes (:mod:`wbik.solvers.workers`), with the same answers."""
+        targets = targets if isinstance(targets, np.ndarray) and targets.ndim > 1 else list(targets)
         workers = min(COUNT.checked(workers, "workers", "solve_many"), max(len(targets), 1))
         if workers == 1:
-            return self._solve_targets(targets, q0s)
+            return IKResults.of(self._solve_targets(targets, q0s))
         self._batch_starts(q0s, len(targets))  # a bad start raises here, not in a worker
         return solve_in_workers(self, targets, q0s, workers)
 

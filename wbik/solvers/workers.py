@@ -24,6 +24,7 @@ import numpy as np
 import pinocchio as pin
 from threadpoolctl import ThreadpoolController, threadpool_limits
 
+from wbik.solvers.batch_results import IKResults
 from wbik.solvers.result import Tolerances
 
 LOGGER = logging.getLogger("wbik.workers")
@@ -37,26 +38,29 @@ def fork_available() -> bool:
     return "fork" in multiprocessing.get_all_start_methods()
 
 
-def solve_in_workers(solver, targets: list, q0s, workers: int) -> list:
+def solve_in_workers(solver, targets, q0s, workers: int) -> IKResults:
     """``solver._solve_targets`` over ``workers`` contiguous parts of ``targets`` (with their rows of a 2-D
     ``q0s``, else ``q0s`` for every part), in forked processes; in this process where none can fork."""
     if not fork_available():
         LOGGER.warning("this platform cannot fork worker processes: solve_many runs in one process")
-        return solver._solve_targets(targets, q0s)
+        return IKResults.of(solver._solve_targets(targets, q0s))
     per_row = q0s is not None and np.ndim(q0s) == 2
     own, *others = [part for part in np.array_split(np.arange(len(targets)), workers) if len(part)]
     futures = []
     if others:
         executor = _pool(solver, len(others))
         rest = targets[len(own):]
-        se3 = all(type(target) is pin.SE3 for target in rest)
-        matrices = np.array([target.homogeneous for target in rest]) if se3 else None
-        futures = [executor.submit(_solve_part, id(solver),
-                                   matrices[part - len(own)] if se3 else [targets[i] for i in part],
+        array = isinstance(rest, np.ndarray)
+        se3 = not array and all(type(target) is pin.SE3 for target in rest)
+        matrices = rest if array else np.array([target.homogeneous for target in rest]) if se3 else None
+        futures = [executor.submit(_solve_part, id(solver), matrices[part - len(own)], array,
+                                   np.asarray(q0s)[part] if per_row else q0s) if array or se3 else
+                   executor.submit(_solve_part, id(solver), [targets[i] for i in part], False,
                                    np.asarray(q0s)[part] if per_row else q0s) for part in others]
     with _caller_share(workers):
-        answers = solver._solve_targets(targets[:len(own)], np.asarray(q0s)[own] if per_row else q0s)
-    return answers + [answer for future in futures for answer in _rows(*future.result())]
+        answers = IKResults.of(solver._solve_targets(targets[:len(own)],
+                                                     np.asarray(q0s)[own] if per_row else q0s))
+    return IKResults.joined([answers, *(_answers(*future.result()) for future in futures)])
 
 
 _SHARING = threading.Lock()
@@ -127,12 +131,14 @@ def _share_cores(workers: int) -> None:
     threadpool_limits(_share(workers), user_api="blas")
 
 
-def _solve_part(key: int, targets, q0s) -> tuple:
-    """In a worker: the inherited solver's batched path on its part (4 x 4 matrices: SE3 targets), the
-    answers as :func:`_columns`."""
-    if isinstance(targets, np.ndarray):
+def _solve_part(key: int, targets, as_array: bool, q0s) -> tuple:
+    """In a worker: the inherited solver's batched path on its part (4 x 4 matrices: SE3 targets unless
+    ``as_array``, the user's own array), the answers as they are where kept as rows, else as
+    :func:`_columns`."""
+    if isinstance(targets, np.ndarray) and not as_array:
         targets = [pin.SE3(matrix) for matrix in targets]
-    return _columns(_INHERITED[key]._solve_targets(targets, q0s))
+    answers = _INHERITED[key]._solve_targets(targets, q0s)
+    return ("answers", answers) if isinstance(answers, IKResults) else _columns(answers)
 
 
 def _columns(answers: list) -> tuple:
@@ -159,6 +165,11 @@ def _columns(answers: list) -> tuple:
 
 
 _SHAPE, _DTYPE = attrgetter("shape"), attrgetter("dtype")
+
+
+def _answers(kind, columns) -> IKResults:
+    """The answers of :func:`_solve_part` back as IKResults."""
+    return columns if kind == "answers" else IKResults.of(_rows(kind, columns))
 
 
 def _rows(kind, columns) -> list:

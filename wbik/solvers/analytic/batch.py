@@ -12,6 +12,7 @@ from wbik.errors import UnsupportedError
 from wbik.geometry import batch_log3
 from wbik.robot import Chain
 from wbik.solvers.analytic.aligned import times
+from wbik.solvers.batch_results import IKResults, SolvedRows
 from wbik.solvers.check import (
     CLIPPED_REASON,
     clip_to_limits,
@@ -39,16 +40,46 @@ def _valid_se3(matrices: np.ndarray) -> bool:
             and within(orthogonal, -tolerance, tolerance) and within(determinant, low, high))
 
 
+def _plain_matrices(values) -> np.ndarray | None:
+    """The (B, 4, 4) float64 poses of a batch of SE3s or of 4 x 4 float64 arrays (or one such array) whose
+    last rows are exactly [0, 0, 0, 1], as :func:`~wbik.targets.plain_pose_matrix` takes one; else None."""
+    if isinstance(values, np.ndarray):
+        matrices = values if values.dtype == np.float64 and values.shape[1:] == (4, 4) else None
+    elif all(type(value) is pin.SE3 for value in values):
+        return np.array([value.homogeneous for value in values])
+    elif all(type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (4, 4)
+             for value in values):
+        matrices = np.array(values)
+    else:
+        return None
+    if matrices is None or not np.array_equal(matrices[:, 3], np.broadcast_to((0.0, 0.0, 0.0, 1.0),
+                                                                              (len(matrices), 4))):
+        return None
+    return matrices
+
+
+def _plain_positions(values) -> np.ndarray | None:
+    """A (B, 3) float64 array of positions within the bound (NaN fails), else None."""
+    if not (isinstance(values, np.ndarray) and values.dtype == np.float64 and values.shape[1:] == (3,)):
+        return None
+    bound = MAX_POSITION
+    return values.copy() if bool(np.all((-bound <= values) & (values <= bound))) else None
+
+
 def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | None]:
-    """(positions (B, 3), rotations (B, 3, 3) or None) of user targets; UnsupportedError for a mixed batch."""
-    values = list(values)
-    if not values:
+    """(positions (B, 3), rotations (B, 3, 3) or None) of user targets (a list of them, or one array of
+    (B, 4, 4) poses or (B, 3) positions); UnsupportedError for a mixed batch."""
+    values = values if isinstance(values, np.ndarray) else list(values)
+    if not len(values):
         return np.zeros((0, 3)), None
-    if all(type(value) is pin.SE3 for value in values):
-        matrices = np.array([value.homogeneous for value in values])
-        if _valid_se3(matrices):
-            solver.check_target_kind("pose")
-            return matrices[:, :3, 3].copy(), matrices[:, :3, :3].copy()
+    matrices = _plain_matrices(values)
+    if matrices is not None and _valid_se3(matrices):
+        solver.check_target_kind("pose")
+        return matrices[:, :3, 3].copy(), matrices[:, :3, :3].copy()
+    positions = _plain_positions(values)
+    if positions is not None:
+        solver.check_target_kind("position")
+        return positions, None
     targets = [as_target(value) for value in values]
     for kind in dict.fromkeys("pose" if target.is_pose else "position" for target in targets):
         solver.check_target_kind(kind)  # once per kind, in the order the batch first holds them
@@ -77,31 +108,31 @@ def _measure(form, positions: np.ndarray, rotations: np.ndarray | None, q: np.nd
 
 def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndarray | None, q: np.ndarray,
                    found: np.ndarray, reasons: list[str], tolerances: Tolerances, time_s: float,
-                   method: str, extras: list[dict], reached: tuple[np.ndarray, np.ndarray] | None = None,
+                   method: str, branches: np.ndarray, reached: tuple[np.ndarray, np.ndarray] | None = None,
                    measured: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
-                   ) -> list[IKResult]:
-    """:func:`wbik.solvers.check.evaluate` for a batch, by ``form.fk``; ``reached``: ``form.fk(q)``,
-    ``measured``: the errors (e_p, e_R, their norms), where already computed."""
+                   ) -> IKResults:
+    """:func:`wbik.solvers.check.evaluate` for a batch, by ``form.fk``: the solved rows stay columns of
+    :class:`IKResults`, the others (rare) are built here. ``branches``: each row's real branches;
+    ``reached``: ``form.fk(q)``, ``measured``: the errors (e_p, e_R, their norms), where already computed."""
     q = np.asarray(q, dtype=float)
     finite = np.all(np.isfinite(q), axis=1)
     inside = clip_to_limits(q, chain.lower, chain.upper)
     position_xyz, rotation_xyz, position_norm, rotation_norm = measured or _measure(
         form, positions, rotations, q, inside, finite, reached)
     success = (position_norm <= tolerances.position) & (rotation_norm <= tolerances.rotation)
-    p_norms, r_norms = position_norm.tolist(), rotation_norm.tolist()
-    results = [IKResult(joints, True, "", p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method, extra)
-               for joints, p_norm, r_norm, p_xyz, r_xyz, extra
-               in zip(inside, p_norms, r_norms, position_xyz, rotation_xyz, extras, strict=True)]
+    rows = SolvedRows(inside, position_norm, rotation_norm, position_xyz, rotation_xyz,
+                      np.full(len(q), time_s), np.asarray(branches), method)
+    answers: list[IKResult | None] = [None] * len(q)
     for index in np.flatnonzero(~(success & found & finite)).tolist():  # the rows not solved (rare)
-        reason, extra = reasons[index], extras[index]
+        reason = reasons[index]
         if not found[index] or not finite[index]:
             why = (reason or "no solution") if not found[index] else invalid_joints_reason(q[index])
-            results[index] = no_joints(why, time_s, Candidate(None, 1, extra=extra), method)
+            extra = {"branches": int(rows.branches[index]), "batched": True}
+            answers[index] = no_joints(why, time_s, Candidate(None, 1, extra=extra), method)
         else:
             if not reason and not chain.in_limits(q[index], tolerance=1e-9):  # the shared check's rule
                 reason = CLIPPED_REASON
             elif not reason:
-                reason = fk_check_reason(p_norms[index], r_norms[index])
-            results[index] = IKResult(inside[index], False, reason, p_norms[index], r_norms[index],
-                                      position_xyz[index], rotation_xyz[index], time_s, 1, method, extra)
-    return results
+                reason = fk_check_reason(float(position_norm[index]), float(rotation_norm[index]))
+            answers[index] = rows.answer(index, False, reason)
+    return IKResults(answers, rows)

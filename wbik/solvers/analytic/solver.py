@@ -34,6 +34,7 @@ from wbik.solvers.analytic.structure import chain_lines
 from wbik.solvers.analytic.ur_type import UR_TYPE
 from wbik.solvers.analytic.yaw_planar import YAW_PLANAR
 from wbik.solvers.base import Solver
+from wbik.solvers.batch_results import IKResults
 from wbik.solvers.check import evaluate
 from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate, IKResult
@@ -223,12 +224,12 @@ class AnalyticSolver(Solver):
             return Candidate(None, 1, no_solution_reason(bool(choice.real.any()), bool(choice.usable.any())))
         return Candidate(choice.q[0], 1, extra={"branches": int(choice.real.sum())})
 
-    def _solve_targets(self, targets: list, q0s) -> list[IKResult]:
+    def _solve_targets(self, targets: list, q0s) -> IKResults:
         """One choice (the kernel where built) and one batched check; per-pose time = the choice's / B."""
         positions, rotations = batch_targets(targets, self)
         count = len(positions)
         if not count:
-            return []
+            return IKResults([])
         q0_array = (np.broadcast_to(self.chain.nominal, (count, self.chain.nq)).copy() if q0s is None
                     else np.array(self._batch_starts(q0s, count)))
         form = self.closed_form("position" if rotations is None else "pose")
@@ -237,20 +238,19 @@ class AnalyticSolver(Solver):
         if isinstance(form.kernel, CompiledForm) and form_rotations is not None:
             joints, errors, info = form.kernel.nearest_many(positions, rotations, q0_array)
             per_pose = (time.perf_counter() - start) / count
-            branches, outcomes = info.T.astype(int).tolist()
-            reasons = ["" if outcome == 1 else kernel_failure_reason(outcome) for outcome in outcomes]
-            extras = [{"branches": branch_count, "batched": True} for branch_count in branches]
+            branches, outcomes = info.T.astype(int)
+            reasons = ["" if outcome == 1 else kernel_failure_reason(outcome)
+                       for outcome in outcomes.tolist()]
             measured = (errors[:, :3], errors[:, 3:6], errors[:, 6], errors[:, 7])
-            return evaluate_batch(self.chain, form, positions, rotations, joints, info[:, 1] == 1, reasons,
-                                  self.tolerances, per_pose, self.name, extras, measured=measured)
+            return evaluate_batch(self.chain, form, positions, rotations, joints, outcomes == 1, reasons,
+                                  self.tolerances, per_pose, self.name, branches, measured=measured)
         choice = self._choose(form, positions, form_rotations, q0_array)
         per_pose = (time.perf_counter() - start) / count
-        extras = [{"branches": branches, "batched": True} for branches in choice.real.sum(axis=1).tolist()]
         any_real, any_usable = choice.real.any(axis=1).tolist(), choice.usable.any(axis=1).tolist()
         reasons = ["" if ok else no_solution_reason(r, u)
                    for ok, r, u in zip(choice.found.tolist(), any_real, any_usable, strict=True)]
         return evaluate_batch(self.chain, form, positions, rotations, choice.q, choice.found, reasons,
-                              self.tolerances, per_pose, self.name, extras,
+                              self.tolerances, per_pose, self.name, choice.real.sum(axis=1),
                               reached=(choice.reached_p, choice.reached_r))
 
     def solve_all(self, target) -> list[IKResult]:
