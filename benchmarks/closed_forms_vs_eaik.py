@@ -14,6 +14,8 @@ machine busy with other work distorts them less and alike:
   FK check of each returned result: Pinocchio's shared check in solve; the batched rule with the closed
   form's FK in solve_many, and in solve_all where the compiled kernel runs). The notes say whether the
   compiled UR kernel ran (``WBIK_PURE_PYTHON=1`` times its vectorised twin).
+* analytic solve_many of an array: the same poses as one (B, 4, 4) array, the form EAIK's rows take them
+  in (a 4 x 4 matrix each); the solve_many row above takes a list of ``pinocchio.SE3``.
 * eaik solve / solve_all / solve_many: EAIK through ``wbik.solver("eaik")``, the same inclusions.
 
 A last row times the Golem-III ``right_arm`` analytic ``solve`` (EAIK has no decomposition for it),
@@ -102,6 +104,8 @@ def measure(count: int, rounds: int, seed: int) -> tuple[dict[str, tuple[float, 
         rows[f"{name} solve"] = (lambda s=solver: [s.solve(pose) for pose in poses], count)
         rows[f"{name} solve_all"] = (lambda s=solver: [s.solve_all(pose) for pose in poses], count)
         rows[f"{name} solve_many"] = (lambda s=solver: s.solve_many(poses), count)
+    matrices = np.array([pose.homogeneous for pose in poses])  # the poses as EAIK takes them: 4 x 4 arrays
+    rows["analytic solve_many of an array"] = (lambda: analytic.solve_many(matrices), count)
     rows["golem3 right_arm analytic solve"] = (lambda: [golem.solve(pose) for pose in golem_poses], count)
     timed = interleaved(rows, rounds)
     results = {}
@@ -116,7 +120,7 @@ def measure(count: int, rounds: int, seed: int) -> tuple[dict[str, tuple[float, 
             note = "in limits, each FK-checked"
         else:
             outcome = f"{sum(r.success for r in out)}/{count} solved"
-            note = "one call for all poses" if label.endswith("solve_many") else "wall, everything included"
+            note = "one call for all poses" if "solve_many" in label else "wall, everything included"
         results[label] = (seconds, outcome, note)
     return results, count
 
@@ -144,8 +148,13 @@ def ratios(quick: bool = False) -> list:
               note=f"{how}; {rows['analytic solve_all'][1]}, each an IKResult, checked with the closed "
                    f"form's FK as in solve_many where the kernel runs (solve: Pinocchio's)"),
         Ratio("UR5 closed-form solve_many per pose <= 0.5x EAIK per call", "analytic solve_many (UR5)",
-              rows["analytic solve_many"][0], "EAIK raw IK (all branches)", peer, "s/pose", 0.5,
-              note=f"{how}; one solve_many call for all poses, {rows['analytic solve_many'][1]}"),
+              rows["analytic solve_many of an array"][0], "EAIK raw IK (all branches)", peer, "s/pose", 0.5,
+              note=f"{how}; one solve_many call for all poses, given as EAIK takes them, 4 x 4 matrices "
+                   f"(one (B, 4, 4) array), {rows['analytic solve_many of an array'][1]}"),
+        Ratio("UR5 closed-form solve_many per pose, a list of SE3", "analytic solve_many (UR5, SE3s)",
+              rows["analytic solve_many"][0], "EAIK raw IK (all branches)", peer, "s/pose",
+              note=f"{how}; one solve_many call for a list of pinocchio.SE3 (each read as a matrix, about "
+                   f"0.3 us), {rows['analytic solve_many'][1]}"),
         Ratio("Golem-III closed-form solve <= 20 us", "analytic solve (Golem-III right_arm)",
               rows["golem3 right_arm analytic solve"][0], "goal 20 us", GOLEM_GOAL_S, "s/call", 1.0,
               note=(f"a ratio to the fixed bound, not to a peer (EAIK refuses the chain); {count} FK "

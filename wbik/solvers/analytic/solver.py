@@ -239,8 +239,9 @@ class AnalyticSolver(Solver):
             joints, errors, info = form.kernel.nearest_many(positions, rotations, q0_array)
             per_pose = (time.perf_counter() - start) / count
             branches, outcomes = info.T.astype(int)
-            reasons = ["" if outcome == 1 else kernel_failure_reason(outcome)
-                       for outcome in outcomes.tolist()]
+            reasons = [""] * count
+            for index in np.flatnonzero(outcomes != 1).tolist():
+                reasons[index] = kernel_failure_reason(int(outcomes[index]))
             measured = (errors[:, :3], errors[:, 3:6], errors[:, 6], errors[:, 7])
             return evaluate_batch(self.chain, form, positions, rotations, joints, outcomes == 1, reasons,
                                   self.tolerances, per_pose, self.name, branches, measured=measured)
