@@ -216,9 +216,10 @@ def test_summary_matches_the_raw_rows(serial_run):
 
 def test_every_row_is_one_call_and_batched_methods_get_a_throughput(serial_run):
     """analytic (a batched path of its own) and dls (none): every time is one solve call's, so a chunk's
-    poses do not share one time; analytic's summary adds the throughput of its solve_many over the case,
-    the chunks' times read back from the chunk files; dls has none."""
-    from wbik.study.results import load_method_rows
+    poses do not share one time; analytic's summary adds the throughput of two solve_many calls over the
+    whole case, in one process and over every core, read back from its throughput file; dls has none."""
+    from wbik.solvers.workers import usable_cores
+    from wbik.study.results import load_method_rows, read_chunk, throughput_path
 
     summary = _summary(serial_run / "ur5_arm_pose" / "summary.csv")
     for label in ("analytic", "dls"):
@@ -226,15 +227,22 @@ def test_every_row_is_one_call_and_batched_methods_get_a_throughput(serial_run):
         chunks = np.split(rows["time_s"], 4)  # 200 calls in 4 chunks: no chunk shares one time
         assert all(np.unique(chunk).size > 1 for chunk in chunks)
         if label == "dls":
+            assert not throughput_path(serial_run, "ur5_arm_pose", label).exists()
             assert "batch_success" not in rows and np.isnan(line["throughput_poses_per_s"])
             continue
+        saved = read_chunk(throughput_path(serial_run, "ur5_arm_pose", label))
+        assert all(np.array_equal(rows[key], saved[key]) for key in saved)
+        for key in ("batch_share_s", "batch_cores_share_s"):
+            assert np.unique(rows[key]).size == 1  # one solve_many call over the case
         assert line["throughput_poses_per_s"] == pytest.approx(200 / rows["batch_share_s"].sum())
-        assert np.unique(rows["batch_share_s"]).size == 4  # one solve_many call per chunk
+        assert line["throughput_cores_poses_per_s"] == pytest.approx(200 / rows["batch_cores_share_s"].sum())
+        assert line["throughput_cores"] == usable_cores()
         assert line["throughput_percent_solved"] == pytest.approx(100 * rows["batch_success"].mean())
+        assert np.array_equal(rows["batch_success"], rows["batch_cores_success"])  # the same answers
         assert line["throughput_disagreements"] == np.sum(rows["batch_success"] != rows["success"])
     section = (serial_run / "report.md").read_text().split("### Throughput of batched methods")[1]
-    assert "| method | throughput (poses/s, solve_many over the case) | % solved (solve_many) | disagree |" \
-        in section.split("### ")[0]
+    assert ("| method | poses/s, one process | poses/s, every core | cores | % solved (solve_many) | "
+            "disagree |") in section.split("### ")[0]
     assert "| dls |" not in section.split("### ")[0]
 
 
@@ -259,12 +267,12 @@ def test_mann_whitney_p_values_match_scipy_on_the_raw_rows(serial_run):
         assert float(test["U"]) == expected.statistic
 
 
-CLOCKS = ("time_s", "cpu_s", "reruns", "batch_share_s")
+CLOCKS = ("time_s", "cpu_s", "reruns", "batch_share_s", "batch_cores_share_s")
 
 
 def _answers(output: Path, case: str, chunks: int) -> dict[str, dict[str, np.ndarray]]:
     """{label: rows} of every method with all its ``chunks`` chunk files, less the clocks (time_s, cpu_s,
-    reruns, batch_share_s): the answers a report's raw.csv shows, without drawing the report."""
+    reruns, the batch calls' shares): the answers a report's raw.csv shows, without drawing the report."""
     rows = {}
     for folder in sorted((output / case / "chunks").iterdir()):
         found = load_method_rows(output, case, folder.name, chunks)
@@ -296,11 +304,12 @@ def test_adding_a_method_reuses_the_chunks_of_the_others(tmp_path):
     assert main(["study", str(study_file), "-o", str(output), "--methods", "analytic", "--no-progress",
                  "--backend", "sequential", "--no-figures"]) == 0
     chunk = output / "ur5_arm_pose" / "chunks" / "analytic" / "chunk_00000.npz"
-    stamp = chunk.stat().st_mtime_ns
+    throughput = output / "ur5_arm_pose" / "chunks" / "analytic" / "throughput.npz"
+    stamp, throughput_stamp = chunk.stat().st_mtime_ns, throughput.stat().st_mtime_ns
     assert set(read_raw_csv(output / "ur5_arm_pose" / "raw.csv")) == {"analytic"}
     run_study(load_study(study_file), output, backend="sequential", progress=False, report=False,
               log=lambda message: None)
-    assert chunk.stat().st_mtime_ns == stamp
+    assert chunk.stat().st_mtime_ns == stamp and throughput.stat().st_mtime_ns == throughput_stamp
     chunks = 2  # 60 poses, 50 per chunk
     for label in ("dls", "kdl"):
         assert load_method_rows(output, "ur5_arm_pose", label, chunks) is not None, label
@@ -312,6 +321,10 @@ def test_adding_a_method_reuses_the_chunks_of_the_others(tmp_path):
               log=lambda message: None)
     assert chunk.stat().st_mtime_ns == stamp and dls_chunk.stat().st_mtime_ns != dls_stamp
     assert load_method_rows(output, "ur5_arm_pose", "dls", chunks)["iterations"].max() <= 5
+    throughput.unlink()  # a pass lost (or killed before its file was written) is run again alone
+    run_study(load_study(changed), output, backend="sequential", progress=False, report=False,
+              log=lambda message: None)
+    assert chunk.stat().st_mtime_ns == stamp and throughput.is_file()
 
 
 # -- resume after a kill -------------------------------------------------------------------------

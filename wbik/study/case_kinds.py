@@ -41,7 +41,7 @@ class ChunkTask:
     first_pose: int
     q0: np.ndarray  # the start configuration of each pose of the chunk
     batch: bool = field(default=True, kw_only=True)
-    """Also time the method's batched path (``solve_many``) over the chunk, where it has one."""
+    """Also time the method's batched path (``solve_many``) over the case, where it has one."""
     registered: tuple = field(default=(), kw_only=True)
     """What user code registered at run time that the chunk needs (:meth:`CaseKind.run_time_entries`)."""
 
@@ -160,6 +160,12 @@ class CaseKind(ABC):
     def solve(self, task: ChunkTask) -> dict[str, np.ndarray]:
         """The rows of one chunk: equal-length columns, ``pose``, ``success``, ``reason``, ``time_s``,
         ``iterations`` and ``q`` among them."""
+
+    def throughput(self, task: ChunkTask, workers: int) -> dict[str, np.ndarray] | None:
+        """The study's throughput pass over a whole case (``task``: every pose), where the kind has one:
+        the batched path timed in one process and over ``workers`` processes, as per-pose columns; None
+        (the default) for a kind or method without one."""
+        return None
 
     # -- the report --------------------------------------------------------------------------------
     @abstractmethod

@@ -151,14 +151,10 @@ class ChainTargets(RegisteredMethods, CaseKind):
             return _raised(solver, exc), math.nan, 0
 
     def solve(self, task: ChainChunkTask) -> dict[str, np.ndarray]:
-        """One chunk's rows: one timed ``solve`` call per pose (:meth:`solve_one`), then with ``task.batch``
-        the chunk once more through a batched path's ``solve_many`` (:func:`batch_columns`)."""
-        from wbik.targets import Target
-
+        """One chunk's rows: one timed ``solve`` call per pose (:meth:`solve_one`)."""
         solver = self.build(task)
         count = task.count
-        targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
-                   for i in range(count)]
+        targets = _targets(task)
         answers, cpu, reruns = zip(*(self.solve_one(task, solver, target, q0)
                                      for target, q0 in zip(targets, task.q0, strict=True)), strict=True)
         nq = solver.chain.nq
@@ -170,9 +166,14 @@ class ChainTargets(RegisteredMethods, CaseKind):
         columns.update(axis_errors(answers, task.rotations, task.angles))
         columns["q"] = np.array([np.full(nq, np.nan) if a.q is None else a.q for a in answers],
                                 dtype=float).reshape(count, nq)
-        if task.batch and has_batched_path(solver):
-            columns.update(batch_columns(solver, targets, task.q0))
         return columns
+
+    def throughput(self, task: ChainChunkTask, workers: int) -> dict[str, np.ndarray] | None:
+        """With ``task.batch``, a batched path's ``solve_many`` over the case (:func:`batch_columns`)."""
+        solver = self.build(task)
+        if not (task.batch and has_batched_path(solver)):
+            return None
+        return batch_columns(solver, _targets(task), task.q0, workers)
 
     # -- the report --------------------------------------------------------------------------------
     def case_results(self, study: Study, case: CaseSpec, output: Path) -> tuple[Path, dict, dict, Chain]:
@@ -254,18 +255,34 @@ def has_batched_path(solver) -> bool:
     return type(solver)._solve_targets is not Solver._solve_targets
 
 
-def batch_columns(solver, targets: list, q0: np.ndarray) -> dict[str, np.ndarray]:
-    """The chunk solved again in one ``solve_many`` call: ``batch_success`` (its verdict per pose) and
-    ``batch_share_s`` (the call's wall time / the chunk's poses; NaN when it raised)."""
+def _targets(task: ChainChunkTask) -> list:
+    """The task's targets, as ``Target``s."""
+    from wbik.targets import Target
+
+    return [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
+            for i in range(task.count)]
+
+
+def batch_columns(solver, targets: list, q0: np.ndarray, workers: int) -> dict[str, np.ndarray]:
+    """The targets solved again, each in one ``solve_many`` call: in one process and over ``workers``
+    processes (after an untimed call that forks them). Per pose: ``batch_success`` and
+    ``batch_cores_success`` (the two calls' verdicts), ``batch_share_s`` and ``batch_cores_share_s`` (a
+    call's wall time / the poses; NaN where it raised), ``batch_workers``."""
     count = len(targets)
-    start = time.perf_counter()
-    try:
-        answers = solver.solve_many(targets, q0)
-    except Exception:  # noqa: BLE001 - no throughput for this chunk; the per-call rows stand
-        return {"batch_success": np.zeros(count, dtype=bool), "batch_share_s": np.full(count, np.nan)}
-    seconds = time.perf_counter() - start
-    return {"batch_success": np.array([a.success for a in answers], dtype=bool),
-            "batch_share_s": np.full(count, seconds / count)}
+    solver.solve_many(targets[:2 * workers], q0[:2 * workers], workers=workers)
+    columns = {"batch_workers": np.full(count, workers)}
+    for name, split in (("batch", 1), ("batch_cores", workers)):
+        start = time.perf_counter()
+        try:
+            answers = solver.solve_many(targets, q0, workers=split)
+        except Exception:  # noqa: BLE001 - no throughput for this case; the per-call rows stand
+            columns.update({f"{name}_success": np.zeros(count, dtype=bool),
+                            f"{name}_share_s": np.full(count, np.nan)})
+            continue
+        seconds = time.perf_counter() - start
+        columns.update({f"{name}_success": np.asarray(answers.success, dtype=bool),
+                        f"{name}_share_s": np.full(count, seconds / count)})
+    return columns
 
 
 def _raised(solver, exc: BaseException):

@@ -102,18 +102,31 @@ def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
 
 def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     """Poses per second of solve_many over the case (log scale) of the methods that have one
-    (``throughput_poses_per_s`` finite), the share it solved written above each bar."""
+    (``throughput_poses_per_s`` finite): a pale bar for one process, a full one for every core, the rates
+    and the share solved written above."""
     labels = [label for label, s in summaries.items() if np.isfinite(s.get("throughput_poses_per_s", np.nan))]
-    rates = np.array([summaries[label]["throughput_poses_per_s"] for label in labels], dtype=float)
-    figure, axes, positions = _bars(labels, rates, colours(summaries), 4.0)
-    for x, label, rate in zip(positions, labels, rates, strict=True):
+    one = np.array([summaries[label]["throughput_poses_per_s"] for label in labels], dtype=float)
+    cores = np.array([summaries[label].get("throughput_cores_poses_per_s", np.nan) for label in labels],
+                     dtype=float)
+    colour = colours(summaries)
+    figure, axes = plt.subplots(figsize=(max(4.0, 1.3 * len(labels) + 2), 4.0))
+    positions = np.arange(len(labels))
+    axes.bar(positions - 0.2, one, width=0.4, color=[colour[label] for label in labels], alpha=0.4,
+             label="one process")
+    axes.bar(positions + 0.2, cores, width=0.4, color=[colour[label] for label in labels], alpha=0.9,
+             label="every core")
+    axes.set_xticks(positions, labels, rotation=30, ha="right")
+    for x, label, slow, fast in zip(positions, labels, one, cores, strict=True):
         solved = summaries[label]["throughput_percent_solved"]
-        axes.text(x, rate * 1.15, f"{rate:.3g}/s\n{solved:.1f} % solved", ha="center", va="bottom",
-                  fontsize=7)
+        axes.text(x, np.nanmax([slow, fast]) * 1.15, f"{slow:.3g} / {fast:.3g} /s\n{solved:.1f} % solved",
+                  ha="center", va="bottom", fontsize=7)
     axes.set_yscale("log")
-    if rates.size:
-        axes.set_ylim(rates.min() / 10, rates.max() * 10)
+    finite = np.concatenate([one, cores])
+    finite = finite[np.isfinite(finite)]
+    if finite.size:
+        axes.set_ylim(finite.min() / 10, finite.max() * 10)
     axes.set_ylabel("throughput (poses/s, solve_many over the case)")
+    axes.legend(fontsize=7, loc="lower right")
     axes.set_title(f"{title}: throughput of batched methods")
     return save(figure, path)
 

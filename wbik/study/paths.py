@@ -234,6 +234,10 @@ class PathTargets(ChainTargets):
         parameters = self.parameters_of(case)
         return {"jump": parameters["jump"], "branch_tolerance": parameters["branch_tolerance"]}
 
+    def throughput(self, task: PathChunkTask, workers: int) -> None:
+        """None: a path is followed point by point from the last answer, which no batch can do."""
+        return None
+
     def solve(self, task: PathChunkTask) -> dict[str, np.ndarray]:
         """Every path of the chunk followed: the per-point columns (``point_*``) and the path metrics."""
         from wbik.study.solution_coverage import closed_form_of

@@ -41,6 +41,11 @@ def chunk_path(output: Path, case_name: str, label: str, chunk: int) -> Path:
     return case_dir(output, case_name) / "chunks" / label / f"chunk_{chunk:05d}.npz"
 
 
+def throughput_path(output: Path, case_name: str, label: str) -> Path:
+    """The columns of a method's throughput pass over a case (beside its chunks, forgotten with them)."""
+    return case_dir(output, case_name) / "chunks" / label / "throughput.npz"
+
+
 def write_chunk(path: Path, columns: dict[str, np.ndarray]) -> None:
     """One chunk of raw rows as a .npz of equal-length columns (strings as unicode arrays)."""
     atomic_write_bytes(path, lambda handle: np.savez(handle, **columns))
@@ -53,12 +58,15 @@ def read_chunk(path: Path) -> dict[str, np.ndarray]:
 
 def load_method_rows(output: Path, case_name: str, label: str,
                      chunk_count: int) -> dict[str, np.ndarray] | None:
-    """The rows of one method, in pose order, from its chunk files; None if any chunk is missing."""
+    """The rows of one method, in pose order, from its chunk files (with its throughput pass's columns,
+    where there is one); None if any chunk is missing."""
     paths = [chunk_path(output, case_name, label, chunk) for chunk in range(chunk_count)]
     if not all(path.is_file() for path in paths):
         return None
     parts = [read_chunk(path) for path in paths]
-    return {key: np.concatenate([part[key] for part in parts]) for key in parts[0]}
+    rows = {key: np.concatenate([part[key] for part in parts]) for key in parts[0]}
+    throughput = throughput_path(output, case_name, label)
+    return {**rows, **read_chunk(throughput)} if throughput.is_file() else rows
 
 
 def write_csv(path: Path, header: list, rows: Iterable[list], lineterminator: str = "\n") -> None:

@@ -115,6 +115,28 @@ def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask
     return tasks, done_rows, total_rows
 
 
+def throughput_pass(study: Study, output: Path, log=print) -> None:
+    """Each case's throughput pass (:meth:`CaseKind.throughput`), in this process once every chunk is
+    done, so that no other work of the study shares the cores: for each applicable method with all its
+    chunks and no throughput file yet, over the case's poses, on every usable core."""
+    cores = usable_cores()
+    for case in study.cases:
+        kind, poses = case_kind(case), None
+        not_applicable = store.read_json(store.case_dir(output, case.name) / "not_applicable.json", {}) or {}
+        for method in study.methods:
+            path = store.throughput_path(output, case.name, method.label)
+            chunks = [store.chunk_path(output, case.name, method.label, chunk)
+                      for chunk in range(chunk_count(study, case))]
+            if method.label in not_applicable or path.is_file() or not all(p.is_file() for p in chunks):
+                continue
+            poses = case_poses(study, case, output) if poses is None else poses
+            task = kind.task(study, case, method, poses, 0, 0, len(poses))
+            columns = kind.throughput(task, cores)
+            if columns is not None:
+                log(f"  {case.name}: {method.label} throughput, solve_many over {len(poses)} poses")
+                store.write_chunk(path, columns)
+
+
 def _forget_if_changed(study: Study, case: CaseSpec, method: MethodSpec, output: Path, log) -> None:
     """Delete a method's chunks computed under another definition of that method; record the current."""
     folder = store.case_dir(output, case.name) / "chunks" / method.label
@@ -271,6 +293,7 @@ def _run_locked(study: Study, output: Path, lock: FolderLock, *, jobs: int, back
                     for task, rows in _execute(phase, count, backend, scheduler):
                         store.write_chunk(path(output, task.case, task.label, task.chunk), rows)
                         bar.update(len(rows["pose"]))
+    throughput_pass(study, output, log)
     elapsed = time.perf_counter() - started
     if tasks or curve_tasks or not (output / PROVENANCE).is_file():  # what made the rows there
         store.write_json(output / PROVENANCE, provenance(study, [__name__]))

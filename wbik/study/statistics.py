@@ -123,17 +123,26 @@ def _cpu_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
 
 
 def throughput_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
-    """Of a method with a batched path: poses per second of ``solve_many`` (NaN if a call raised), the %
-    it solved, and the poses where its verdict differs from ``solve``'s; NaN (and 0) without one."""
+    """Of a method with a batched path: poses per second of ``solve_many`` over the case in one process and
+    over every core (NaN if a call raised), the cores used, the % solved, and the poses where a batch's
+    verdict differs from ``solve``'s; NaN (and 0) without one."""
     batch = rows.get("batch_success")
     if batch is None:
-        return {"throughput_poses_per_s": math.nan, "throughput_percent_solved": math.nan,
+        return {"throughput_poses_per_s": math.nan, "throughput_cores_poses_per_s": math.nan,
+                "throughput_cores": math.nan, "throughput_percent_solved": math.nan,
                 "throughput_disagreements": 0}
-    seconds = float(np.sum(rows["batch_share_s"]))
-    batch = batch.astype(bool)
-    return {"throughput_poses_per_s": batch.size / seconds if seconds > 0 else math.nan,
+
+    def rate(name: str) -> float:
+        seconds = float(np.sum(rows[name]))
+        return batch.size / seconds if seconds > 0 else math.nan
+
+    batch, solved = batch.astype(bool), rows["success"].astype(bool)
+    disagree = (batch != solved) | (rows["batch_cores_success"].astype(bool) != solved)
+    return {"throughput_poses_per_s": rate("batch_share_s"),
+            "throughput_cores_poses_per_s": rate("batch_cores_share_s"),
+            "throughput_cores": float(rows["batch_workers"][0]) if batch.size else math.nan,
             "throughput_percent_solved": 100.0 * float(np.mean(batch)) if batch.size else math.nan,
-            "throughput_disagreements": int(np.sum(batch != rows["success"].astype(bool)))}
+            "throughput_disagreements": int(np.sum(disagree))}
 
 
 def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
