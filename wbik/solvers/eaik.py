@@ -8,7 +8,6 @@ with joint 1, 2 or 3 locked, the 7R Panda and the Pincher (q1 = 0 in every branc
 
 from __future__ import annotations
 
-import time
 from time import perf_counter
 
 import numpy as np
@@ -92,12 +91,10 @@ class EAIKSolver(BranchLibrarySolver):
         start = perf_counter()
         robot = getattr(self._local, "state", None) or self._thread_state()  # this thread's EAIK robot
         q_all = robot.calculate_IK(pose).Q
-        if len(q_all):
-            out = np.empty(self._parts_size)
-            if self._kernel_choose(self._params, q_all, q_start, pose, out):
-                elapsed = perf_counter() - start
-                return evaluate_screened(chain, pose if target is None else target, out,
-                                         {"branches": len(q_all)}, self.tolerances, elapsed, self.name)
+        if (parts := self._screened(q_all, q_start, pose)) is not None:
+            elapsed = perf_counter() - start
+            return evaluate_screened(chain, pose if target is None else target, parts,
+                                     {"branches": len(q_all)}, self.tolerances, elapsed, self.name)
         target = pose_target(pose) if target is None else target
         candidate = self._pick(q_all, target, q_start)
         elapsed = perf_counter() - start
@@ -107,24 +104,44 @@ class EAIKSolver(BranchLibrarySolver):
         return self._choose(self._library_branches(target), target, q0)[0]
 
     def _solve_targets(self, targets: list, q0s) -> list[IKResult]:
-        """One EAIK ``IK_batched`` call, branches picked as in ``solve``; per-pose time = total / B."""
+        """One EAIK ``IK_batched`` call, then ``solve``'s choice and check per pose (the same answers);
+        per-pose time = total / B."""
         targets = [as_target(t) for t in targets]
         if not targets:
             return []
         for target in targets:
             self._check_target_kind(target)
         starts = self._batch_starts(q0s, len(targets))
-        q0_array = [self.chain.nominal.copy() if s is None else s for s in starts]
-        start = time.perf_counter()
-        poses = [self.form.pose(target.position, target.rotation) for target in targets]
+        q_starts = [self.chain.nominal if q0 is None else q0 for q0 in starts]
+        start = perf_counter()
+        poses = [self._target_pose(target) for target in targets]
         solutions = self._thread_state().calculate_IK_batched(poses, self.batch_threads)
-        chosen = [self._choose(self._branches(solution), target, q0)
-                  for solution, target, q0 in zip(solutions, targets, q0_array, strict=True)]
-        per_pose = (time.perf_counter() - start) / len(targets)
-        for candidate, _ in chosen:
-            candidate.extra["batched"] = True
-        return [evaluate(self.chain, target, candidate, self.tolerances, per_pose, self.name, reached)
-                for target, (candidate, reached) in zip(targets, chosen, strict=True)]
+        branches = [solution.Q for solution in solutions]
+        chosen = [self._screened(q_all, q0, pose)
+                  for q_all, q0, pose in zip(branches, q_starts, poses, strict=True)]
+        picked = {index: self._pick(q_all, targets[index], q_starts[index])
+                  for index, (q_all, parts) in enumerate(zip(branches, chosen, strict=True)) if parts is None}
+        per_pose = (perf_counter() - start) / len(targets)
+        results = []
+        for index, (target, q_all, parts) in enumerate(zip(targets, branches, chosen, strict=True)):
+            if parts is not None:
+                extra = {"branches": len(q_all), "batched": True}
+                results.append(evaluate_screened(self.chain, target, parts, extra, self.tolerances, per_pose,
+                                                 self.name))
+            else:
+                candidate = picked[index]
+                candidate.extra["batched"] = True
+                results.append(evaluate(self.chain, target, candidate, self.tolerances, per_pose, self.name))
+        return results
+
+    def _screened(self, q_all: np.ndarray, q_start: np.ndarray, pose: np.ndarray) -> np.ndarray | None:
+        """The compiled choice's parts (joints, tip pose, errors) of the branch nearest ``q_start`` that
+        passes the screen, else None (then :meth:`_pick` says why)."""
+        if len(q_all):
+            out = np.empty(self._parts_size)
+            if self._kernel_choose(self._params, q_all, q_start, pose, out):
+                return out
+        return None
 
 
 IK_METHODS = (
