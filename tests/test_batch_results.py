@@ -85,7 +85,19 @@ def test_slices_pickles_and_joins_keep_the_answers(ur5, rng):
     _same(IKResults.joined([answers[:10], answers[10:]]), answers)
     listed = IKResults.of(list(answers))
     _same(IKResults.joined([listed[:7], answers[7:]]), answers)
-    assert answers == list(answers) and IKResults([]) == []
+    fresh = ur5.solve_many(_batch(ur5, np.random.default_rng(5)))  # parts joined before any row is built
+    again = ur5.solve_many(_batch(ur5, np.random.default_rng(5)))
+    _same(IKResults.joined([fresh[:13], fresh[13:]]), again)
+    assert answers == list(answers) and answers != list(answers)[:-1] and IKResults([]) == []
+
+
+def test_the_joints_column_has_the_chains_width_when_nothing_is_solved():
+    far = pin.SE3(np.eye(3), np.array([9.0, 0.0, 0.0]))
+    for method in ("analytic", "eaik"):  # (a method's own batch, and answers built one by one)
+        solver = wbik.solver(method, "ur5", chain="ee")
+        for workers in (1, 2):
+            answers = solver.solve_many([far, far], workers=workers)
+            assert not answers.success.any() and answers.q.shape == (2, 6) and np.isnan(answers.q).all()
 
 
 @pytest.mark.parametrize("form", ["array", "list of arrays"])
@@ -107,11 +119,23 @@ def test_an_array_of_positions_gives_the_answers_of_the_vectors(rng):
 def test_a_bad_row_in_an_array_raises_what_solve_raises(method, rng):
     solver = wbik.solver(method, "ur5", chain="ee")
     matrices = np.array([solver.chain.fk(q).homogeneous for q in solver.chain.random(rng, 4)])
-    not_rotation, bad_row = matrices.copy(), matrices.copy()
+    not_rotation, bad_row, not_finite = matrices.copy(), matrices.copy(), matrices.copy()
     not_rotation[2, :3, :3] *= 1.01
     bad_row[1, 3, 0] = 0.5
-    for batch in (not_rotation, bad_row):
-        with pytest.raises(InvalidTargetError):
-            solver.solve(batch[2] if batch is not_rotation else batch[1])
-        with pytest.raises(InvalidTargetError):
+    not_finite[3, 0, 3] = np.nan
+    for batch, row in ((not_rotation, 2), (bad_row, 1), (not_finite, 3)):
+        with pytest.raises(InvalidTargetError) as single:
+            solver.solve(batch[row])
+        with pytest.raises(InvalidTargetError) as batched:
             solver.solve_many(batch)
+        assert type(batched.value) is type(single.value)
+
+
+def test_an_array_of_other_numbers_takes_the_general_path(ur5, rng):
+    """float32 poses and integer positions: converted as ``solve`` converts one target."""
+    poses = _batch(ur5, rng)[:6]
+    as_float32 = np.array([pose.homogeneous for pose in poses], dtype=np.float32)
+    _same(ur5.solve_many(as_float32), ur5.solve_many(list(as_float32)))
+    arm = wbik.solver("analytic", "arm3r")
+    integers = np.array([[3, 0, 2], [0, 2, 3]])
+    _same(arm.solve_many(integers), arm.solve_many(integers.astype(float)))

@@ -169,9 +169,11 @@ class Solver(IterationBudget):
         targets = targets if isinstance(targets, np.ndarray) and targets.ndim > 1 else list(targets)
         workers = min(COUNT.checked(workers, "workers", "solve_many"), max(len(targets), 1))
         if workers == 1:
-            return IKResults.of(self._solve_targets(targets, q0s))
-        self._batch_starts(q0s, len(targets))  # a bad start raises here, not in a worker
-        return solve_in_workers(self, targets, q0s, workers)
+            answers = IKResults.of(self._solve_targets(targets, q0s))
+        else:
+            self._batch_starts(q0s, len(targets))  # a bad start raises here, not in a worker
+            answers = solve_in_workers(self, targets, q0s, workers)
+        return IKResults.of(answers, None if self._chain is None else self._chain.nq)
 
     def _solve_targets(self, targets: list, q0s) -> list[IKResult]:
         """The batch in this process: ``solve`` per target (a method with a batched path overrides it)."""

@@ -57,18 +57,25 @@ class IKResults(Sequence[IKResult]):
     :attr:`success`, :attr:`q`, :attr:`position_error`, :attr:`rotation_error` and :attr:`reasons` give
     one field of every answer at once (as arrays, NaN where an answer has no joints)."""
 
-    __slots__ = ("_answers", "_rows")
+    __slots__ = ("_answers", "_rows", "_width")
 
-    def __init__(self, answers: list[IKResult | None], rows: SolvedRows | None = None):
-        """``answers``: the built answers, None where row ``i`` of ``rows`` (a success) is the answer."""
+    def __init__(self, answers: list[IKResult | None], rows: SolvedRows | None = None,
+                 width: int | None = None):
+        """``answers``: the built answers, None where row ``i`` of ``rows`` (a success) is the answer;
+        ``width``: the joints of an answer (the :attr:`q` column's width when no answer has joints)."""
         if rows is None and any(answer is None for answer in answers):
             raise ValueError("IKResults: an answer left to be built needs the rows it is built from")
         self._answers, self._rows = answers, rows
+        self._width = rows.q.shape[1] if rows is not None else width
 
     @classmethod
-    def of(cls, answers: Sequence[IKResult]) -> IKResults:
+    def of(cls, answers: Sequence[IKResult], width: int | None = None) -> IKResults:
         """``answers`` (a list of IKResult, or IKResults returned as they are) as IKResults."""
-        return answers if isinstance(answers, IKResults) else cls(list(answers))
+        if isinstance(answers, IKResults):
+            if answers._width is None:
+                answers._width = width
+            return answers
+        return cls(list(answers), width=width)
 
     @classmethod
     def joined(cls, parts: Sequence[IKResults]) -> IKResults:
@@ -76,9 +83,10 @@ class IKResults(Sequence[IKResult]):
         if len(parts) == 1:
             return parts[0]
         answers = [answer for part in parts for answer in part._answers]
+        width = next((part._width for part in parts if part._width is not None), None)
         if all(part._rows is not None for part in parts) and len({part._rows.method for part in parts}) == 1:
             return cls(answers, SolvedRows.joined([part._rows for part in parts]))
-        return cls([answer for part in parts for answer in part])
+        return cls([answer for part in parts for answer in part], width=width)
 
     def __len__(self) -> int:
         return len(self._answers)
@@ -86,7 +94,7 @@ class IKResults(Sequence[IKResult]):
     def __getitem__(self, index):
         if isinstance(index, slice):
             rows = None if self._rows is None else self._rows.taken(index)
-            return IKResults(self._answers[index], rows)
+            return IKResults(self._answers[index], rows, self._width)
         index = operator.index(index)
         answer = self._answers[index]
         if answer is None:
@@ -140,8 +148,8 @@ class IKResults(Sequence[IKResult]):
 
     @property
     def q(self) -> np.ndarray:
-        """Each answer's joints, (B, n), a row of NaN for an answer without joints (an empty (0, 0) batch)."""
-        width = self._rows.q.shape[1] if self._rows is not None else next(
+        """Each answer's joints, (B, n), a row of NaN for an answer without joints."""
+        width = self._width if self._width is not None else next(
             (len(answer.q) for answer in self._answers if answer.q is not None), 0)
         joints = np.full((len(self), width), np.nan)
         for index, answer in enumerate(self._answers):

@@ -169,11 +169,12 @@ class ChainTargets(RegisteredMethods, CaseKind):
         return columns
 
     def throughput(self, task: ChainChunkTask, workers: int) -> dict[str, np.ndarray] | None:
-        """With ``task.batch``, a batched path's ``solve_many`` over the case (:func:`batch_columns`)."""
-        solver = self.build(task)
-        if not (task.batch and has_batched_path(solver)):
+        """With ``task.batch``, a batched path's ``solve_many`` over the case (:func:`batch_columns`); no
+        columns for a method without one."""
+        if not task.batch:
             return None
-        return batch_columns(solver, _targets(task), task.q0, workers)
+        solver = self.build(task)
+        return batch_columns(solver, _targets(task), task.q0, workers) if has_batched_path(solver) else {}
 
     # -- the report --------------------------------------------------------------------------------
     def case_results(self, study: Study, case: CaseSpec, output: Path) -> tuple[Path, dict, dict, Chain]:
@@ -265,21 +266,24 @@ def _targets(task: ChainChunkTask) -> list:
 
 def batch_columns(solver, targets: list, q0: np.ndarray, workers: int) -> dict[str, np.ndarray]:
     """The targets solved again, each in one ``solve_many`` call: in one process and over ``workers``
-    processes (after an untimed call that forks them). Per pose: ``batch_success`` and
-    ``batch_cores_success`` (the two calls' verdicts), ``batch_share_s`` and ``batch_cores_share_s`` (a
-    call's wall time / the poses; NaN where it raised), ``batch_workers``."""
+    processes (each after an untimed call on a few targets, which also forks the processes). Per pose:
+    ``batch_success`` and ``batch_cores_success`` (the two calls' verdicts), ``batch_share_s`` and
+    ``batch_cores_share_s`` (a call's wall time / the poses; NaN and unsolved where it raised),
+    ``batch_workers``."""
     count = len(targets)
-    solver.solve_many(targets[:2 * workers], q0[:2 * workers], workers=workers)
+    workers = min(workers, count)  # (solve_many splits a batch into at most one part per target)
     columns = {"batch_workers": np.full(count, workers)}
     for name, split in (("batch", 1), ("batch_cores", workers)):
-        start = time.perf_counter()
         try:
+            # untimed first: a first call's costs (imports, tables) and the fork of the processes
+            solver.solve_many(targets[:2 * split], q0[:2 * split], workers=split)
+            start = time.perf_counter()
             answers = solver.solve_many(targets, q0, workers=split)
-        except Exception:  # noqa: BLE001 - no throughput for this case; the per-call rows stand
+            seconds = time.perf_counter() - start
+        except Exception:  # noqa: BLE001 - no throughput for this call; the per-call rows stand
             columns.update({f"{name}_success": np.zeros(count, dtype=bool),
                             f"{name}_share_s": np.full(count, np.nan)})
             continue
-        seconds = time.perf_counter() - start
         columns.update({f"{name}_success": np.asarray(answers.success, dtype=bool),
                         f"{name}_share_s": np.full(count, seconds / count)})
     return columns

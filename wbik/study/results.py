@@ -4,6 +4,7 @@
     <case>/poses.npz                        q_true, positions, rotations (pose targets), q0
     <case>/chunks/<method>/chunk_00012.npz  raw rows of poses [12 * chunk_size, 13 * chunk_size)
     <case>/chunks/<method>/method.json      the method's definition those chunks were computed with
+    <case>/chunks/<method>/throughput.npz   its throughput pass over the case (no columns: no batched path)
     <case>/not_applicable.json              {method label: why it does not apply}
     <case>/raw.csv, summary.csv, significance.csv, figures/*.png
     report.md, report.html

@@ -115,11 +115,13 @@ def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask
     return tasks, done_rows, total_rows
 
 
-def throughput_pass(study: Study, output: Path, log=print) -> None:
+def throughput_pass(study: Study, output: Path, log=print) -> int:
     """Each case's throughput pass (:meth:`CaseKind.throughput`), in this process once every chunk is
     done, so that no other work of the study shares the cores: for each applicable method with all its
-    chunks and no throughput file yet, over the case's poses, on every usable core."""
-    cores = usable_cores()
+    chunks and no throughput file yet, over the case's poses, on every usable core (a method without a
+    batched path gets a file without columns, so that a resumed run does not ask again). Returns how many
+    files it wrote."""
+    cores, written = usable_cores(), 0
     for case in study.cases:
         kind, poses = case_kind(case), None
         not_applicable = store.read_json(store.case_dir(output, case.name) / "not_applicable.json", {}) or {}
@@ -133,8 +135,11 @@ def throughput_pass(study: Study, output: Path, log=print) -> None:
             task = kind.task(study, case, method, poses, 0, 0, len(poses))
             columns = kind.throughput(task, cores)
             if columns is not None:
-                log(f"  {case.name}: {method.label} throughput, solve_many over {len(poses)} poses")
+                if columns:
+                    log(f"  {case.name}: {method.label} throughput, solve_many over {len(poses)} poses")
                 store.write_chunk(path, columns)
+                written += 1
+    return written
 
 
 def _forget_if_changed(study: Study, case: CaseSpec, method: MethodSpec, output: Path, log) -> None:
@@ -293,9 +298,9 @@ def _run_locked(study: Study, output: Path, lock: FolderLock, *, jobs: int, back
                     for task, rows in _execute(phase, count, backend, scheduler):
                         store.write_chunk(path(output, task.case, task.label, task.chunk), rows)
                         bar.update(len(rows["pose"]))
-    throughput_pass(study, output, log)
+    measured = throughput_pass(study, output, log)
     elapsed = time.perf_counter() - started
-    if tasks or curve_tasks or not (output / PROVENANCE).is_file():  # what made the rows there
+    if tasks or curve_tasks or measured or not (output / PROVENANCE).is_file():  # what made the rows there
         store.write_json(output / PROVENANCE, provenance(study, [__name__]))
     previous = store.read_json(output / "run.json", {}) or {}
     store.write_json(output / "run.json", {

@@ -133,14 +133,17 @@ def throughput_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
                 "throughput_disagreements": 0}
 
     def rate(name: str) -> float:
-        seconds = float(np.sum(rows[name]))
+        seconds = float(np.sum(rows[name])) if name in rows else math.nan  # (NaN: rows from before)
         return batch.size / seconds if seconds > 0 else math.nan
 
     batch, solved = batch.astype(bool), rows["success"].astype(bool)
-    disagree = (batch != solved) | (rows["batch_cores_success"].astype(bool) != solved)
+    disagree = batch != solved
+    if "batch_cores_success" in rows:
+        disagree |= rows["batch_cores_success"].astype(bool) != solved
+    workers = rows.get("batch_workers")
     return {"throughput_poses_per_s": rate("batch_share_s"),
             "throughput_cores_poses_per_s": rate("batch_cores_share_s"),
-            "throughput_cores": float(rows["batch_workers"][0]) if batch.size else math.nan,
+            "throughput_cores": float(workers[0]) if workers is not None and batch.size else math.nan,
             "throughput_percent_solved": 100.0 * float(np.mean(batch)) if batch.size else math.nan,
             "throughput_disagreements": int(np.sum(disagree))}
 

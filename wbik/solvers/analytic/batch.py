@@ -43,8 +43,10 @@ def _valid_se3(matrices: np.ndarray) -> bool:
 def _plain_matrices(values) -> np.ndarray | None:
     """The (B, 4, 4) float64 poses of a batch of SE3s or of 4 x 4 float64 arrays (or one such array) whose
     last rows are exactly [0, 0, 0, 1], as :func:`~wbik.targets.plain_pose_matrix` takes one; else None."""
-    if isinstance(values, np.ndarray):
+    if type(values) is np.ndarray:
         matrices = values if values.dtype == np.float64 and values.shape[1:] == (4, 4) else None
+    elif isinstance(values, np.ndarray):  # a subclass (np.matrix, a masked array): the general path
+        return None
     elif all(type(value) is pin.SE3 for value in values):
         return np.array([value.homogeneous for value in values])
     elif all(type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (4, 4)
@@ -60,7 +62,7 @@ def _plain_matrices(values) -> np.ndarray | None:
 
 def _plain_positions(values) -> np.ndarray | None:
     """A (B, 3) float64 array of positions within the bound (NaN fails), else None."""
-    if not (isinstance(values, np.ndarray) and values.dtype == np.float64 and values.shape[1:] == (3,)):
+    if not (type(values) is np.ndarray and values.dtype == np.float64 and values.shape[1:] == (3,)):
         return None
     bound = MAX_POSITION
     return values.copy() if bool(np.all((-bound <= values) & (values <= bound))) else None
