@@ -18,7 +18,7 @@ from wbik.study.case_kinds import CaseKind
 from wbik.study.context import chunk_count
 from wbik.study.cpu_watch import STARVED_CPU_SHARE, threads_of
 from wbik.study.spec import CaseSpec, MethodSpec, Study
-from wbik.study.statistics import ALPHA, BOOTSTRAP_RESAMPLES, significance, with_holm
+from wbik.study.statistics import ALPHA, BATCH_CALLS, BOOTSTRAP_RESAMPLES, significance, with_holm
 
 
 @dataclass
@@ -169,11 +169,12 @@ def throughput_blocks(study: Study, analysis: dict) -> list[Block]:
         return []
     return [Block("h3", "Throughput of batched methods"),
             Block("p", "Methods with a batched path solved the case's targets again, once every chunk was "
-                       "done and with nothing else of the study running: one solve_many call over all "
-                       "of them in one process, and one split over every usable core (workers=N, after "
-                       "an untimed call that forks the processes). Throughput: the case's poses / the "
-                       "call's wall time; 'disagree': poses whose verdict in either call differs from "
-                       "solve's. Every other table and figure counts the per-call solve."),
+                       "done and with nothing else of the study running: solve_many over all of them "
+                       "in one process, and split over every usable core (workers=N, after an untimed "
+                       "call that forks the processes). Throughput: the case's poses / the wall time of "
+                       f"the best of {BATCH_CALLS} calls each way; 'disagree': poses whose verdict "
+                       "either way differs from solve's. Every other table and figure counts the per-call "
+                       "solve."),
             summary_table(summaries, [
                 ("poses/s, one process", "throughput_poses_per_s"),
                 ("poses/s, every core", "throughput_cores_poses_per_s"),

@@ -122,6 +122,10 @@ def _cpu_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
             "rerun_exhausted": int(np.sum(rows["reruns"] >= MAX_RERUNS)) if "reruns" in rows else 0}
 
 
+BATCH_CALLS = 3
+"""The calls over a whole case that each throughput figure is the best of."""
+
+
 def throughput_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
     """Of a method with a batched path: poses per second of ``solve_many`` over the case in one process and
     over every core (NaN if a call raised), the cores used, the % solved, and the poses where a batch's
