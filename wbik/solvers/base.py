@@ -169,7 +169,7 @@ class Solver(IterationBudget):
         targets = targets if isinstance(targets, np.ndarray) and targets.ndim > 1 else list(targets)
         workers = min(COUNT.checked(workers, "workers", "solve_many"), max(len(targets), 1))
         if workers == 1:
-            answers = IKResults.of(self._solve_targets(targets, q0s))
+            answers = self._solve_targets(targets, q0s)
         else:
             self._batch_starts(q0s, len(targets))  # a bad start raises here, not in a worker
             answers = solve_in_workers(self, targets, q0s, workers)

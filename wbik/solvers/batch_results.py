@@ -116,14 +116,15 @@ class IKResults(Sequence[IKResult]):
     def __repr__(self) -> str:
         return f"IKResults({len(self)} answers, {int(self.success.sum())} solved)"
 
-    def _column(self, field: str, rows_column: np.ndarray | None, missing: float = np.nan) -> np.ndarray:
-        """One number per answer: the built answers' ``field``, the rest from ``rows_column``."""
-        values = np.full(len(self), missing, dtype=float if rows_column is None else rows_column.dtype)
-        for index, answer in enumerate(self._answers):
-            if answer is not None:
-                values[index] = getattr(answer, field)
-            elif rows_column is not None:
-                values[index] = rows_column[index]
+    def _built(self) -> list[tuple[int, IKResult]]:
+        """(index, answer) of the answers already built."""
+        return [(index, answer) for index, answer in enumerate(self._answers) if answer is not None]
+
+    def _column(self, field: str, rows_column: np.ndarray | None) -> np.ndarray:
+        """One number per answer: ``rows_column`` where the rows hold it, the built answers' ``field``."""
+        values = np.full(len(self), np.nan) if rows_column is None else rows_column.astype(float)
+        for index, answer in self._built():
+            values[index] = getattr(answer, field)
         return values
 
     @property
@@ -150,11 +151,8 @@ class IKResults(Sequence[IKResult]):
     def q(self) -> np.ndarray:
         """Each answer's joints, (B, n), a row of NaN for an answer without joints."""
         width = self._width if self._width is not None else next(
-            (len(answer.q) for answer in self._answers if answer.q is not None), 0)
-        joints = np.full((len(self), width), np.nan)
-        for index, answer in enumerate(self._answers):
-            if answer is None:
-                joints[index] = self._rows.q[index]
-            elif answer.q is not None:
-                joints[index] = answer.q
+            (len(answer.q) for answer in self._answers if answer is not None and answer.q is not None), 0)
+        joints = np.full((len(self), width), np.nan) if self._rows is None else self._rows.q.astype(float)
+        for index, answer in self._built():
+            joints[index] = np.nan if answer.q is None else answer.q
         return joints
