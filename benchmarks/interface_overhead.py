@@ -27,8 +27,8 @@ import pinocchio as pin
 
 import wbik
 from wbik.solvers.base import Solver
-from wbik.solvers.check import inside_limits, judged
-from wbik.solvers.result import Candidate
+from wbik.solvers.check import inside_limits
+from wbik.solvers.result import Candidate, IKResult
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ratios import (
@@ -59,8 +59,7 @@ could all fall inside one, while fifteen rounds spread over all chains rarely do
 
 
 PHASES = ("as_target", "start joints (check_q)", "the clock (2 perf_counter)", "the method",
-          "inside the limits (test, copy)", "FK (Pinocchio, the tip's 4 x 4)",
-          "errors (base frame) and IKResult")
+          "inside the limits (test, copy)", "FK and errors (Chain.tip_errors)", "the IKResult")
 """The steps of a chain target's ``solve`` with the trivial method, in order (``--phases``)."""
 
 
@@ -75,8 +74,7 @@ def chain_loops(robot_name: str, chain_name: str) -> dict[str, Callable[[], obje
     target = chain.fk(q)
     kind = wbik.as_target(target)
     candidate = Candidate(q, 0)
-    reached, base_inverse = chain.root_tip(q), chain.base_inverse_matrix
-    tolerances = solver.tolerances
+    position_xyz, rotation_xyz = np.empty(3), np.empty(3)
     clock = time.perf_counter
 
     def method() -> Candidate:
@@ -84,8 +82,9 @@ def chain_loops(robot_name: str, chain_name: str) -> dict[str, Callable[[], obje
 
     phases = (lambda: wbik.as_target(target), lambda: chain.check_q(q), lambda: (clock(), clock()), method,
               lambda: inside_limits(q, chain.lower, chain.upper) and q.copy(),
-              lambda: chain.root_tip(q),
-              lambda: judged(kind, q, reached, candidate, "", tolerances, 0.0, solver.name, base_inverse))
+              lambda: chain.tip_errors(q, kind.position, kind.rotation, position_xyz, rotation_xyz),
+              lambda: IKResult(q, True, "", 0.0, 0.0, position_xyz, rotation_xyz, 0.0, 0, solver.name,
+                               candidate.extra))
     return {"solve": lambda: solver.solve(target, q), "method": method,
             "fk": lambda: pin.framesForwardKinematics(chain.model, chain.data, q),
             **dict(zip(PHASES, phases, strict=True))}

@@ -27,17 +27,26 @@ apt_install python3-pykdl chromium chromium-driver
 if [ ! -x .venv/bin/python ]; then
     "$PY" -m venv .venv
 fi
-.venv/bin/python -m pip install -q --upgrade pip >/dev/null
-# uv installs the pinned set in about a third of pip's time (it links files from its cache instead of
-# unpacking every wheel; --system-certs: the system's CA store, as pip.conf's cert gives pip); pip does it
-# where uv cannot be installed or fails
-if .venv/bin/python -m pip install -q -c requirements.lock uv \
-        && .venv/bin/uv pip install -q --system-certs --python .venv/bin/python --compile-bytecode \
-            -c requirements.lock -e ".[all,dev]"; then
-    :
+# what the install step reads: the pins, the package's build files and the compiled kernels' sources; when
+# none changed since the last install that succeeded, it is skipped (the C++ kernel takes half a minute)
+inputs=$(cat requirements.lock pyproject.toml setup.py wbik/kernels/_*.c wbik/kernels/_*.cpp wbik/kernels/_*.h | sha256sum | cut -c1-16)
+if [ "$(cat .venv/.wbik-installed 2>/dev/null)" = "$inputs" ] && .venv/bin/python -c "import wbik" 2>/dev/null; then
+    echo "setup: the pinned set and wbik's kernels are installed and up to date"
 else
-    echo "setup: uv could not install the pinned set; installing with pip" >&2
-    .venv/bin/python -m pip install -q -c requirements.lock -e ".[all,dev]"
+    rm -f .venv/.wbik-installed
+    .venv/bin/python -m pip install -q --upgrade pip >/dev/null
+    # uv installs the pinned set in about a third of pip's time (it links files from its cache instead of
+    # unpacking every wheel; --system-certs: the system's CA store, as pip.conf's cert gives pip); pip does
+    # it where uv cannot be installed or fails
+    if .venv/bin/python -m pip install -q -c requirements.lock uv \
+            && .venv/bin/uv pip install -q --system-certs --python .venv/bin/python --compile-bytecode \
+                -c requirements.lock --build-constraints requirements.lock -e ".[all,dev]"; then
+        :
+    else
+        echo "setup: uv could not install the pinned set; installing with pip" >&2
+        .venv/bin/python -m pip install -q -c requirements.lock -e ".[all,dev]"
+    fi
+    echo "$inputs" > .venv/.wbik-installed
 fi
 
 # Expose Debian's PyKDL (built for CPython 3.11) to the venv without pulling in the rest of
@@ -52,9 +61,10 @@ fi
 # the notebooks: each notebooks/NN_name.py (a jupytext percent script, the tested source) is paired with the
 # NN_name.ipynb that JupyterLab opens (notebooks/jupytext.toml); saving either one updates the other
 .venv/bin/jupytext --quiet --sync notebooks/[0-9][0-9]_*.py
-if ! .venv/bin/python -c "from wbik.kernels.twins import KERNELS; raise SystemExit(not all(k.extension for k in KERNELS))"; then
-    echo "setup: the optional C kernels were not built (no C compiler or Python headers): wbik runs their" >&2
-    echo "setup: pure-Python twins (slower; solve gives the same bits); install gcc and python3-dev, then" >&2
-    echo "setup: run this again." >&2
+missing=$(.venv/bin/python -c "from wbik.kernels.twins import KERNELS; print(' '.join(k.name for k in KERNELS if k.extension is None))")
+if [ -n "$missing" ]; then
+    echo "setup: these optional compiled kernels were not built: $missing (no C or C++ compiler, no Python" >&2
+    echo "setup: headers, or WBIK_BUILD_CXX=0 for chain_fk): wbik runs their Python twins (slower; solve gives" >&2
+    echo "setup: the same bits); install gcc, g++ and python3-dev, then run this again." >&2
 fi
 .venv/bin/python -c "import wbik; print('setup: wbik', wbik.__version__, 'ready in .venv')"

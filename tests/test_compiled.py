@@ -52,7 +52,7 @@ def test_the_extensions_are_built_where_a_compiler_exists():
 
 
 def test_every_kernel_is_in_the_kernels_folder_and_listed():
-    """One look finds them all: every C source of wbik is wbik/kernels/_<name>.c, listed in
+    """One look finds them all: every C or C++ source of wbik is wbik/kernels/_<name>.c (.cpp), listed in
     wbik.kernels.twins.KERNELS (and built by setup.py under that name), whose Python twins exist."""
     import importlib
     import re
@@ -61,9 +61,10 @@ def test_every_kernel_is_in_the_kernels_folder_and_listed():
     from wbik.kernels.twins import KERNELS
 
     package = Path(importlib.import_module("wbik").__file__).parent
-    sources = sorted(path.relative_to(package).as_posix() for path in package.rglob("*.c"))
+    sources = sorted(path.relative_to(package).with_suffix("").as_posix()
+                     for suffix in ("*.c", "*.cpp") for path in package.rglob(suffix))
     names = [kernel.name for kernel in KERNELS]
-    assert sources == sorted(f"kernels/_{name}.c" for name in names)
+    assert sources == sorted(f"kernels/_{name}" for name in names)
     setup = (package.parent / "setup.py").read_text(encoding="utf-8")
     listed = re.search(r"KERNELS = \(([^)]*)\)", setup).group(1)
     assert [word.strip().strip('"') for word in listed.split(",")] == names

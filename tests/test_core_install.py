@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from wbik.kernels.twins import can_build
+
 ROOT = Path(__file__).resolve().parents[1]
 UV = Path(sys.executable).parent / "uv"
 """The installer (the dev extra's uv, as the set-up uses): it resolves the wheel's metadata as pip does, and
@@ -23,16 +25,20 @@ CORE_DISTRIBUTIONS = ("pin", "numpy", "scipy", "qpsolvers", "daqp", "example-rob
                       "matplotlib", "pyyaml", "tqdm", "wbik")
 
 
-def _run(command: list, cwd: Path, check: bool = True) -> subprocess.CompletedProcess:
+def _run(command: list, cwd: Path, check: bool = True, **env: str) -> subprocess.CompletedProcess:
     return subprocess.run([str(part) for part in command], cwd=cwd, capture_output=True, text=True,
-                          check=check, timeout=900, env={"PATH": "/usr/bin:/bin", "HOME": str(Path.home())})
+                          check=check, timeout=900,
+                          env={"PATH": "/usr/bin:/bin", "HOME": str(Path.home()), **env})
 
 
 @pytest.fixture(scope="module")
 def core(tmp_path_factory) -> Path:
     """A folder holding ``venv``: the wheel installed with no extras."""
     work = tmp_path_factory.mktemp("core_install")
-    _run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", work / "dist", ROOT], work)
+    # without the C++ kernel (WBIK_BUILD_CXX=0), as a machine without a C++ compiler installs it: every
+    # method runs, the chain's FK through Pinocchio's binding (tests/test_installed.py builds it)
+    _run([UV, "build", "-q", "--wheel", "--system-certs", "--build-constraint", ROOT / "requirements.lock",
+          "--out-dir", work / "dist", ROOT], work, WBIK_BUILD_CXX="0")
     wheel = next((work / "dist").glob("wbik-*.whl"))
     _run([sys.executable, "-m", "venv", "--without-pip", work / "venv"], work)
     _run([UV, "pip", "install", "-q", "--system-certs", "--python", work / "venv/bin/python",
@@ -75,3 +81,15 @@ def test_wbik_solve_and_a_missing_peer(core):
     listed = _run([wbik, "methods"], core).stdout
     for extra in ("placo", "pink", "mink", "eaik", "ikgeo", "tracik"):
         assert f"pip install 'wbik[{extra}]'" in listed, extra
+
+
+def test_without_the_cxx_kernel_the_chain_fk_is_pinocchios_binding(core):
+    """The wheel built with WBIK_BUILD_CXX=0 has no compiled chain FK; a chain then places its tip through
+    Pinocchio's binding and the C kernels still run."""
+    script = ("import wbik; from wbik.kernels.twins import KERNELS; "
+              "built = {k.name: k.extension is not None for k in KERNELS}; "
+              "chain = wbik.load('ur5').chain('arm'); "
+              "print(built.pop('chain_fk'), chain._compiled, all(built.values()))")
+    printed = _run([core / "venv/bin/python", "-c", script], core).stdout.split()
+    assert printed[:2] == ["False", "None"]
+    assert printed[2] == str(can_build())

@@ -1,7 +1,7 @@
 """wbik works installed from a wheel, not only from the source tree.
 
-A wheel is built (``pip wheel --no-deps``) from a copy of the files a build reads, so nothing is
-written into the working tree. It is installed (no dependencies) into a fresh venv made by this
+A wheel is built (``uv build --wheel``, with the C++ kernel) from a copy of the files a build reads,
+so nothing is written into the working tree. It is installed (no dependencies) into a fresh venv made by this
 interpreter without pip; a ``.pth`` there adds the test venv's site-packages *after* the new venv's
 own, so the dependencies are reused while ``import wbik`` finds the installed copy first (the
 editable install's finder is consulted only after the path). The commands run from ``tmp_path``
@@ -28,6 +28,7 @@ from wbik.kernels.twins import can_build
 ROOT = Path(__file__).resolve().parents[1]
 BUILD_INPUTS = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "wbik", "tasks", "urdf")
 TIMEOUT_S = 600
+UV = Path(sys.executable).parent / "uv"
 HAS_COMPILER = can_build()
 """Whether the wheel can build the C kernels."""
 
@@ -59,8 +60,10 @@ def installed(tmp_path_factory) -> dict:
     env = {key: value for key, value in os.environ.items() if key not in ("PYTHONPATH", "VIRTUAL_ENV")}
     env.update(PIP_DISABLE_PIP_VERSION_CHECK="1", WBIK_CACHE_DIR=str(work / "cache"), MPLBACKEND="Agg")
     wheels = work / "wheels"
-    build = _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-v", ".", "-w", wheels], cwd=source,
-                 env=env)
+    # uv, as the set-up: its isolated build environment links the build requirements (Pinocchio's, Boost's
+    # and Eigen's headers for the C++ kernel) from its cache where pip would unpack them (65 s against 32)
+    build = _run([UV, "build", "--wheel", "--system-certs", "--build-constraint", ROOT / "requirements.lock",
+                  "--out-dir", wheels, "."], cwd=source, env=env)
     wheel = next(wheels.glob("wbik-*.whl"))
     build_output = build.stdout + build.stderr
 
@@ -96,7 +99,7 @@ def test_the_installed_copy_is_imported_and_carries_its_data(installed):
               "print(k._ur_kernel is not None, getattr(k._ur_kernel, '__file__', '')); "
               "from wbik.kernels.twins import KERNELS; "
               "print(*[getattr(k.extension, '__file__', 'missing') for k in KERNELS "
-              "if k.name in ('pose', 'qp_rows', 'lm_trial')])")
+              "if k.name in ('pose', 'qp_rows', 'lm_trial', 'chain_fk')])")
     out = _run([installed["python"], "-c", script], cwd=installed["cwd"], env=installed["env"]).stdout
     lines = out.splitlines()
     package = installed["purelib"] / "wbik"
@@ -116,9 +119,11 @@ def test_the_installed_copy_is_imported_and_carries_its_data(installed):
     if HAS_COMPILER:  # the wheel compiled every kernel (the copy had no .so)
         built, kernel_file = lines[10].split()
         assert built == "True" and Path(kernel_file).is_relative_to(package), lines[10]
-        assert all(Path(other).is_relative_to(package) for other in lines[11].split()), lines[11]
+        kernels = lines[11].split()
+        assert len(kernels) == 4 and all(Path(other).is_relative_to(package) for other in kernels), lines[11]
+        assert Path(kernels[-1]).stat().st_size < 2_000_000, "the C++ kernel carries debug information"
     else:
-        assert lines[10].startswith("False") and lines[11].split() == ["missing"] * 3, lines[10:]
+        assert lines[10].startswith("False") and lines[11].split() == ["missing"] * 4, lines[10:]
 
 
 def test_wbik_tasks_then_run_a_shipped_task_by_name(installed):

@@ -31,7 +31,8 @@ from wbik.errors import (
     did_you_mean,
 )
 from wbik.files import atomic_write_text
-from wbik.geometry import wrap_to_pi
+from wbik.geometry import pose_errors, wrap_to_pi
+from wbik.kernels.chain_fk import compiled_chain, tip_errors, tip_pose
 from wbik.kernels.twins import chosen, compiled_twin
 from wbik.kinematic_tree import ChainPath, chain_path, frame_index, leaf_frames
 from wbik.urdf import Mimic, angles_of, parse_urdf, reduced_model
@@ -192,12 +193,36 @@ class Chain:
         tip = pin.updateFramePlacement(model, data, self.tip_id)  # a copy, not a view into data
         return tip if self._base_is_identity else self._base_inverse * tip
 
+    @cached_property
+    def _compiled(self):
+        """The compiled chain FK's copy of the reduced model (:mod:`wbik.kernels.chain_fk`), or None."""
+        return compiled_chain(self.model, self.tip_id)
+
     def root_tip(self, q: np.ndarray) -> np.ndarray:
         """The tip frame's 4 x 4 pose in the model's root frame (:attr:`base_inverse_matrix` takes it into the
-        base frame); only the tip frame is placed."""
+        base frame) of float64 joints q; only the tip frame is placed. Pinocchio's FK, in C++ where the
+        compiled chain FK is built (the same bits), else through its binding."""
+        compiled = self._compiled
+        if compiled is not None:
+            pose = np.empty((4, 4))
+            tip_pose(compiled, q, pose)
+            return pose
         model, data = self.model, self.data  # (data: a per-thread lookup, once)
         pin.forwardKinematics(model, data, q)
         return pin.updateFramePlacement(model, data, self.tip_id).homogeneous
+
+    def tip_errors(self, q: np.ndarray, position: np.ndarray, rotation: np.ndarray | None,
+                   position_error: np.ndarray, rotation_error: np.ndarray) -> tuple[float, float, bool]:
+        """The shared check's errors of float64 joints q on a target in the base frame:
+        :func:`wbik.geometry.pose_errors` of their tip pose (e_p, e_R written into the last two arrays;
+        returns |e_p|, |e_R| and whether the formula kept the axis), FK and errors in one compiled call
+        where the compiled chain FK is built."""
+        compiled = self._compiled
+        if compiled is not None:
+            return tip_errors(compiled, q, position, rotation, position_error, rotation_error,
+                              self.base_inverse_matrix)
+        return pose_errors(self.root_tip(q), position, rotation, position_error, rotation_error,
+                           self.base_inverse_matrix)
 
     def fk_jacobian(self, q: np.ndarray) -> tuple[pin.SE3, np.ndarray]:
         """(tip pose, 6 x n Jacobian [v; w]) in base-frame axes, v taken at the tip origin."""

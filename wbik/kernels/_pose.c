@@ -13,58 +13,20 @@
  */
 #include "_buffers.h"
 #include "_pose_errors.h"
+#include "_checked_errors.h"
 #include <math.h>
 #include <string.h>
 
 /* pose_errors(reached, position, rotation, position_error, rotation_error, base_inverse) -> (|e_p|, |e_R|, exact)
- * reached: the reached pose's 4x4 homogeneous matrix; position (3,) and rotation (3, 3) or None: the target;
- * base_inverse: None, or a 4x4 rigid transform B^-1 applied first (the reached pose taken as B^-1 reached, the
- * top three rows, each entry summed over k in order, the translation added last).
- * Writes e_p = p - p* into position_error (3,) and e_R = log3(R*^T R) in the batched check's formula into
- * rotation_error (3,) (0 for a position-only target). exact is False where that formula loses the axis
- * (|vee| < 1e-6 near a half turn, geometry.batch_log3's rule): the caller then takes Pinocchio's log3. */
+ * reached: the reached pose's 4x4 homogeneous matrix; the rest as _checked_errors.h says. */
 static PyObject *pose_errors_of(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (check_count("pose_errors", nargs, 6) < 0)
         return NULL;
-    double reached[16], position[3], rotation[9], errors[8];
-    if (read_doubles(args[0], reached, 4, 4, "reached") < 0 || read_doubles(args[1], position, 3, 0, "position") < 0)
+    double reached[16];
+    if (read_doubles(args[0], reached, 4, 4, "reached") < 0)
         return NULL;
-    if (args[5] != Py_None) {
-        double base[16], moved[12];
-        if (read_doubles(args[5], base, 4, 4, "base_inverse") < 0)
-            return NULL;
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 4; j++) {
-                double sum = base[4 * i] * reached[j] + base[4 * i + 1] * reached[4 + j] + base[4 * i + 2] * reached[8 + j];
-                moved[4 * i + j] = j == 3 ? sum + base[4 * i + 3] : sum;
-            }
-        memcpy(reached, moved, sizeof(moved));
-    }
-    const double reached_p[3] = {reached[3], reached[7], reached[11]};
-    const double reached_r[9] = {reached[0], reached[1], reached[2], reached[4], reached[5], reached[6],
-                                 reached[8], reached[9], reached[10]};
-    int exact = 1;
-    if (args[2] == Py_None) {
-        for (int i = 0; i < 3; i++) {
-            errors[i] = reached_p[i] - position[i];
-            errors[3 + i] = 0.0;
-        }
-        errors[6] = sqrt(errors[0] * errors[0] + errors[1] * errors[1] + errors[2] * errors[2]);
-        errors[7] = 0.0;
-    } else {
-        if (read_doubles(args[2], rotation, 3, 3, "rotation") < 0)
-            return NULL;
-        exact = !pose_errors(reached_p, reached_r, position, rotation, errors);
-    }
-    if (write_doubles(args[3], errors, 3, "position_error") < 0 || write_doubles(args[4], errors + 3, 3, "rotation_error") < 0)
-        return NULL;
-    PyObject *position_norm = PyFloat_FromDouble(errors[6]), *rotation_norm = PyFloat_FromDouble(errors[7]);
-    PyObject *result = position_norm && rotation_norm
-                       ? PyTuple_Pack(3, position_norm, rotation_norm, exact ? Py_True : Py_False) : NULL;
-    Py_XDECREF(position_norm);
-    Py_XDECREF(rotation_norm);
-    return result;
+    return checked_errors_tuple(reached, args[1], args[2], args[3], args[4], args[5]);
 }
 
 static PyObject *ndarray_type; /* numpy.ndarray, read when the module is imported */

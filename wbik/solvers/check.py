@@ -72,8 +72,8 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     q = candidate.q
     if reached is None and not chain.any_continuous and inside_limits(q, chain.lower, chain.upper):
         inside = q.copy()  # the common case: finite joints inside the limits, checked as they are
-        return judged(target, inside, chain.root_tip(inside), candidate, candidate.reason, tolerances,
-                      time_s, method, chain.base_inverse_matrix)
+        return judged(target, inside, None, candidate, candidate.reason, tolerances, time_s, method,
+                      chain=chain)
     if q is None:
         return no_joints(candidate.reason or "no solution", time_s, candidate, method)
     if type(q) is not np.ndarray or q.dtype != np.float64:
@@ -101,16 +101,23 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     return result
 
 
-def judged(target: Target, inside: np.ndarray, reached: np.ndarray, candidate: Candidate, reason: str,
-           tolerances: Tolerances, time_s: float, method: str, base_inverse: np.ndarray | None = None
-           ) -> IKResult:
+def judged(target: Target, inside: np.ndarray, reached: np.ndarray | None, candidate: Candidate, reason: str,
+           tolerances: Tolerances, time_s: float, method: str, base_inverse: np.ndarray | None = None,
+           chain: Chain | None = None) -> IKResult:
     """The result of joints ``inside`` the limits whose tip pose is ``reached`` (4 x 4; in the base frame
-    after ``base_inverse`` where given): their errors (:func:`wbik.geometry.pose_errors`; Pinocchio's
-    log3 near a half turn) against the tolerances."""
+    after ``base_inverse`` where given; None: ``chain``'s FK of ``inside``, in the base frame): their errors
+    (:func:`wbik.geometry.pose_errors`; Pinocchio's log3 near a half turn) against the tolerances."""
     position_xyz, rotation_xyz, rotation = np.empty(3), np.empty(3), target.rotation
-    position_norm, rotation_norm, exact = pose_errors(reached, target.position, rotation, position_xyz,
-                                                      rotation_xyz, base_inverse)
+    position = target.position
+    if reached is None:
+        position_norm, rotation_norm, exact = chain.tip_errors(inside, position, rotation, position_xyz,
+                                                               rotation_xyz)
+    else:
+        position_norm, rotation_norm, exact = pose_errors(reached, position, rotation, position_xyz,
+                                                          rotation_xyz, base_inverse)
     if not exact:  # the formula lost the axis near a half turn
+        if reached is None:
+            reached, base_inverse = chain.root_tip(inside), chain.base_inverse_matrix
         turned = reached[:3, :3] if base_inverse is None else base_inverse[:3, :3].dot(reached[:3, :3])
         rotation_xyz = pin.log3(rotation.T.dot(turned))
         rotation_norm = math.hypot(*rotation_xyz.tolist())

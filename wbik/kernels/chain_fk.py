@@ -1,0 +1,59 @@
+"""The compiled chain FK's side in Python (:mod:`wbik.kernels._chain_fk`): a chain's reduced model copied
+into the kernel, which then places the tip with Pinocchio's own C++ FK in one call. Its Python twin is the
+binding's path of :class:`wbik.robot.Chain` (``forwardKinematics`` and ``updateFramePlacement``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.kernels.twins import compiled_twin, pure_python
+
+JOINT_KINDS = {"JointModelRX": 0, "JointModelRY": 1, "JointModelRZ": 2, "JointModelRevoluteUnaligned": 3,
+               "JointModelPX": 4, "JointModelPY": 5, "JointModelPZ": 6, "JointModelPrismaticUnaligned": 7}
+"""Pinocchio's joint types the kernel copies (its JointKind numbers); a model with another keeps the twin."""
+UNALIGNED = {"JointModelRevoluteUnaligned", "JointModelPrismaticUnaligned"}
+PROBES = 4
+"""Configurations at which the copy must place the tip as the binding does, bit for bit, to be used."""
+
+_build = compiled_twin("chain_fk", "build")
+tip_pose = compiled_twin("chain_fk", "tip_pose")
+"""tip_pose(chain, q, out): the tip's 4 x 4 pose in the root frame into ``out`` (the kernel's)."""
+tip_errors = compiled_twin("chain_fk", "tip_errors")
+"""tip_errors(chain, q, position, rotation, position_error, rotation_error, base_inverse) -> (|e_p|, |e_R|,
+exact): :func:`wbik.geometry.pose_errors` of the tip pose of q, in one call (the kernel's)."""
+
+
+def compiled_chain(model: pin.Model, tip_id: int):
+    """The kernel's copy of ``model`` with frame ``tip_id`` as its tip, or None where the kernel is not built,
+    ``WBIK_PURE_PYTHON`` asks for the twin, a joint is none of :data:`JOINT_KINDS`, or the copy does not
+    place the tip as the binding does at :data:`PROBES` seeded configurations (it then never runs)."""
+    if _build is None or pure_python("chain_fk"):
+        return None
+    names = [model.joints[j].shortname() for j in range(1, model.njoints)]
+    if any(name not in JOINT_KINDS for name in names):
+        return None
+    axes = np.zeros((len(names), 3))
+    for row, name in enumerate(names):
+        if name in UNALIGNED:
+            axes[row] = model.joints[row + 1].extract().axis
+    placements = np.array([model.jointPlacements[j].homogeneous.ravel() for j in range(1, model.njoints)]
+                          ).reshape(len(names), 16)
+    frame = model.frames[tip_id]
+    chain = _build([JOINT_KINDS[name] for name in names], list(model.parents)[1:], axes, placements,
+                   frame.parentJoint, frame.placement.homogeneous)
+    return chain if _agrees(chain, model, tip_id) else None
+
+
+def _agrees(chain, model: pin.Model, tip_id: int) -> bool:
+    """Whether the copy places the tip as Pinocchio's binding does, bit for bit, at seeded configurations
+    inside the limits (finite ones: +-pi where a limit is infinite)."""
+    lower = np.where(np.isfinite(model.lowerPositionLimit), model.lowerPositionLimit, -np.pi)
+    upper = np.where(np.isfinite(model.upperPositionLimit), model.upperPositionLimit, np.pi)
+    data, pose = model.createData(), np.empty((4, 4))
+    for q in np.random.default_rng(0).uniform(lower, upper, (PROBES, model.nq)):
+        pin.forwardKinematics(model, data, q)
+        tip_pose(chain, q, pose)
+        if pose.tobytes() != pin.updateFramePlacement(model, data, tip_id).homogeneous.tobytes():
+            return False
+    return True
