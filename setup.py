@@ -90,6 +90,6 @@ def extension(name: str) -> Extension | None:
 
 EXTENSIONS = [built for built in map(extension, KERNELS) if built is not None]
 
-# the C++ kernel takes about half a minute to compile: the C kernels build beside it, one per core
+# the C++ kernel takes about 12 s to compile: the C kernels build beside it, one per core
 setup(cmdclass={"build_py": BuildPyWithData}, ext_modules=EXTENSIONS,
       options={"build_ext": {"parallel": os.cpu_count() or 1}})

@@ -27,9 +27,12 @@ apt_install python3-pykdl chromium chromium-driver
 if [ ! -x .venv/bin/python ]; then
     "$PY" -m venv .venv
 fi
-# what the install step reads: the pins, the package's build files and the compiled kernels' sources; when
-# none changed since the last install that succeeded, it is skipped (the C++ kernel takes half a minute)
-inputs=$(cat requirements.lock pyproject.toml setup.py wbik/kernels/_*.c wbik/kernels/_*.cpp wbik/kernels/_*.h | sha256sum | cut -c1-16)
+# what the install step reads: the pins, the package's build files, the compiled kernels' sources, the
+# compilers present and WBIK_BUILD_CXX; when none changed since an install that built every kernel, it is
+# skipped (the C++ kernel takes about 12 s to compile). --reinstall-package: uv rebuilds an editable
+# package only when its build files change, not its kernels' sources.
+inputs=$( (cat requirements.lock pyproject.toml setup.py wbik/kernels/_*.c wbik/kernels/_*.cpp wbik/kernels/_*.h;
+           command -v gcc g++ || true; echo "WBIK_BUILD_CXX=${WBIK_BUILD_CXX:-1}") | sha256sum | cut -c1-16)
 if [ "$(cat .venv/.wbik-installed 2>/dev/null)" = "$inputs" ] && .venv/bin/python -c "import wbik" 2>/dev/null; then
     echo "setup: the pinned set and wbik's kernels are installed and up to date"
 else
@@ -40,13 +43,16 @@ else
     # it where uv cannot be installed or fails
     if .venv/bin/python -m pip install -q -c requirements.lock uv \
             && .venv/bin/uv pip install -q --system-certs --python .venv/bin/python --compile-bytecode \
-                -c requirements.lock --build-constraints requirements.lock -e ".[all,dev]"; then
+                -c requirements.lock --build-constraints requirements.lock --reinstall-package wbik \
+                -e ".[all,dev]"; then
         :
     else
         echo "setup: uv could not install the pinned set; installing with pip" >&2
         .venv/bin/python -m pip install -q -c requirements.lock -e ".[all,dev]"
     fi
-    echo "$inputs" > .venv/.wbik-installed
+    if .venv/bin/python -c "from wbik.kernels.twins import KERNELS; raise SystemExit(not all(k.extension for k in KERNELS))"; then
+        echo "$inputs" > .venv/.wbik-installed  # every kernel built: the next run may skip this step
+    fi
 fi
 
 # Expose Debian's PyKDL (built for CPython 3.11) to the venv without pulling in the rest of

@@ -62,8 +62,8 @@ def installed(tmp_path_factory) -> dict:
     wheels = work / "wheels"
     # uv, as the set-up: its isolated build environment links the build requirements (Pinocchio's, Boost's
     # and Eigen's headers for the C++ kernel) from its cache where pip would unpack them (65 s against 32)
-    build = _run([UV, "build", "--wheel", "--system-certs", "--build-constraint", ROOT / "requirements.lock",
-                  "--out-dir", wheels, "."], cwd=source, env=env)
+    build = _run([UV, "build", "--wheel", "--python", sys.executable, "--system-certs", "--build-constraint",
+                  ROOT / "requirements.lock", "--out-dir", wheels, "."], cwd=source, env=env)
     wheel = next(wheels.glob("wbik-*.whl"))
     build_output = build.stdout + build.stderr
 

@@ -104,3 +104,15 @@ def test_the_first_qp_solve_imports_its_backend_where_it_is_needed():
                           "problem = IKProblem(robot.model, [PositionTask('tool0', [0.4, 0.1, 0.4])])\n"
                           "problem.solve(robot.nominal)")
     assert "daqp" in loaded and "qpsolvers" not in loaded  # DAQP is called directly
+
+
+def test_the_cxx_kernels_build_requirements_are_the_locked_pinocchio_and_one_eigen():
+    """The C++ kernel compiles Pinocchio's headers: build-system.requires pins the libpinocchio that the
+    lock's pin (the runtime binding the kernel must match bit for bit) depends on, and one Eigen."""
+    requires = [Requirement(text) for text in
+                tomllib.loads((ROOT / "pyproject.toml").read_text())["build-system"]["requires"]]
+    pinned = {canonicalize_name(r.name): str(r.specifier) for r in requires
+              if str(r.specifier).startswith("==")}
+    pins = _lock()
+    assert pinned["libpinocchio"] == f"=={pins['libpinocchio']}" == f"=={pins['pin']}"
+    assert pinned["cmeel-eigen"].startswith("==3.4.")

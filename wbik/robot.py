@@ -194,16 +194,17 @@ class Chain:
         return tip if self._base_is_identity else self._base_inverse * tip
 
     @cached_property
-    def _compiled(self):
+    def compiled_fk(self):
         """The compiled chain FK's copy of the reduced model (:mod:`wbik.kernels.chain_fk`), or None."""
-        return compiled_chain(self.model, self.tip_id)
+        return compiled_chain(self.model, self.tip_id, self.lower, self.upper, self.base_inverse_matrix)
 
     def root_tip(self, q: np.ndarray) -> np.ndarray:
         """The tip frame's 4 x 4 pose in the model's root frame (:attr:`base_inverse_matrix` takes it into the
-        base frame) of float64 joints q; only the tip frame is placed. Pinocchio's FK, in C++ where the
-        compiled chain FK is built (the same bits), else through its binding."""
-        compiled = self._compiled
-        if compiled is not None:
+        base frame); only the tip frame is placed. Pinocchio's FK: of float64 joints in C++ where the compiled
+        chain FK is built (the same bits for finite joints), else through its binding."""
+        compiled = self.compiled_fk
+        plain = type(q) is np.ndarray and q.dtype == np.float64 and q.shape == self.lower.shape
+        if compiled is not None and plain:
             pose = np.empty((4, 4))
             tip_pose(compiled, q, pose)
             return pose
@@ -217,8 +218,8 @@ class Chain:
         :func:`wbik.geometry.pose_errors` of their tip pose (e_p, e_R written into the last two arrays;
         returns |e_p|, |e_R| and whether the formula kept the axis), FK and errors in one compiled call
         where the compiled chain FK is built."""
-        compiled = self._compiled
-        if compiled is not None:
+        compiled = self.compiled_fk
+        if compiled is not None and tip_errors is not None:
             return tip_errors(compiled, q, position, rotation, position_error, rotation_error,
                               self.base_inverse_matrix)
         return pose_errors(self.root_tip(q), position, rotation, position_error, rotation_error,

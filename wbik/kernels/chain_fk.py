@@ -19,12 +19,20 @@ PROBES = 4
 _build = compiled_twin("chain_fk", "build")
 tip_pose = compiled_twin("chain_fk", "tip_pose")
 """tip_pose(chain, q, out): the tip's 4 x 4 pose in the root frame into ``out`` (the kernel's)."""
-tip_errors = compiled_twin("chain_fk", "tip_errors")
+_ERRORS = not pure_python("pose")  # the errors are the pose kernel's: WBIK_PURE_PYTHON=pose runs their twin
+tip_errors = compiled_twin("chain_fk", "tip_errors") if _ERRORS else None
 """tip_errors(chain, q, position, rotation, position_error, rotation_error, base_inverse) -> (|e_p|, |e_R|,
-exact): :func:`wbik.geometry.pose_errors` of the tip pose of q, in one call (the kernel's)."""
+exact): :func:`wbik.geometry.pose_errors` of the tip pose of q, in one call (the kernel's), or None."""
+checked_result = compiled_twin("chain_fk", "checked_result") if _ERRORS else None
+"""checked_result(chain, q, position, rotation, position_tolerance, rotation_tolerance, time_s, iterations,
+method, extra) -> the shared check's answer of joints inside the limits that pass, whole, else None (the
+kernel's; its twin: :func:`wbik.solvers.check.evaluate`'s Python path), or None where not built."""
+result_type = compiled_twin("chain_fk", "result_type")
+"""result_type(cls, fields): registers the answer type ``checked_result`` fills (its slot fields in order)."""
 
 
-def compiled_chain(model: pin.Model, tip_id: int):
+def compiled_chain(model: pin.Model, tip_id: int, lower: np.ndarray, upper: np.ndarray,
+                   base_inverse: np.ndarray | None):
     """The kernel's copy of ``model`` with frame ``tip_id`` as its tip, or None where the kernel is not built,
     ``WBIK_PURE_PYTHON`` asks for the twin, a joint is none of :data:`JOINT_KINDS`, or the copy does not
     place the tip as the binding does at :data:`PROBES` seeded configurations (it then never runs)."""
@@ -41,15 +49,16 @@ def compiled_chain(model: pin.Model, tip_id: int):
                           ).reshape(len(names), 16)
     frame = model.frames[tip_id]
     chain = _build([JOINT_KINDS[name] for name in names], list(model.parents)[1:], axes, placements,
-                   frame.parentJoint, frame.placement.homogeneous)
+                   frame.parentJoint, frame.placement.homogeneous, lower, upper, base_inverse)
     return chain if _agrees(chain, model, tip_id) else None
 
 
 def _agrees(chain, model: pin.Model, tip_id: int) -> bool:
     """Whether the copy places the tip as Pinocchio's binding does, bit for bit, at seeded configurations
-    inside the limits (finite ones: +-pi where a limit is infinite)."""
-    lower = np.where(np.isfinite(model.lowerPositionLimit), model.lowerPositionLimit, -np.pi)
-    upper = np.where(np.isfinite(model.upperPositionLimit), model.upperPositionLimit, np.pi)
+    inside the limits and within +-pi (of a limit that excludes it, the nearest value: FK does not read the
+    limits, and a model built in code has limits of +-1.8e308)."""
+    lower = np.clip(-np.pi, model.lowerPositionLimit, model.upperPositionLimit)
+    upper = np.clip(np.pi, model.lowerPositionLimit, model.upperPositionLimit)
     data, pose = model.createData(), np.empty((4, 4))
     for q in np.random.default_rng(0).uniform(lower, upper, (PROBES, model.nq)):
         pin.forwardKinematics(model, data, q)

@@ -5,6 +5,7 @@ target, :func:`check_problem` for a whole-body problem.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 
@@ -12,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.geometry import pose_errors
+from wbik.kernels import chain_fk
 from wbik.kernels.twins import chosen, compiled_twin
 from wbik.qp.kinematics import Kinematics
 from wbik.robot import Chain
@@ -24,6 +26,9 @@ try:  # numpy's clip ufunc: np.clip's Python wrapper costs more than the ufunc o
 except ImportError:  # pragma: no cover - another numpy layout
     _clip_ufunc = None
 
+
+if chain_fk.result_type is not None:  # the answer the compiled check fills: IKResult's slots, in order
+    chain_fk.result_type(IKResult, [field.name for field in dataclasses.fields(IKResult)])
 
 CLIPPED_REASON = "solution outside the joint limits (clipped)"
 
@@ -70,6 +75,14 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     ``reached``: ``chain.fk(candidate.q).homogeneous`` as the method computed it, used only when the
     joints checked are ``candidate.q`` bit for bit."""
     q = candidate.q
+    if reached is None and not chain.any_continuous:
+        if (compiled := chain.compiled_fk) is not None and chain_fk.checked_result is not None:
+            # a passing answer's whole check in one call (None for every other case, judged below)
+            result = chain_fk.checked_result(compiled, q, target.position, target.rotation,
+                                             tolerances.position, tolerances.rotation, time_s,
+                                             candidate.iterations, method, candidate.extra)
+            if result is not None:
+                return result
     if reached is None and not chain.any_continuous and inside_limits(q, chain.lower, chain.upper):
         inside = q.copy()  # the common case: finite joints inside the limits, checked as they are
         return judged(target, inside, None, candidate, candidate.reason, tolerances, time_s, method,
