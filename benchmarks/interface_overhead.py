@@ -27,8 +27,8 @@ import pinocchio as pin
 
 import wbik
 from wbik.solvers.base import Solver
-from wbik.solvers.check import inside_limits
-from wbik.solvers.result import Candidate, IKResult
+from wbik.solvers.check import evaluate
+from wbik.solvers.result import Candidate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ratios import (
@@ -59,7 +59,7 @@ could all fall inside one, while fifteen rounds spread over all chains rarely do
 
 
 PHASES = ("as_target", "start joints (check_q)", "the clock (2 perf_counter)", "the method",
-          "inside the limits (test, copy)", "FK and errors (Chain.tip_errors)", "the IKResult")
+          "the check (evaluate: limits, FK, errors, IKResult)")
 """The steps of a chain target's ``solve`` with the trivial method, in order (``--phases``)."""
 
 
@@ -74,17 +74,14 @@ def chain_loops(robot_name: str, chain_name: str) -> dict[str, Callable[[], obje
     target = chain.fk(q)
     kind = wbik.as_target(target)
     candidate = Candidate(q, 0)
-    position_xyz, rotation_xyz = np.empty(3), np.empty(3)
+    tolerances = solver.tolerances
     clock = time.perf_counter
 
     def method() -> Candidate:
         return solver._solve(kind, q, np.inf)
 
     phases = (lambda: wbik.as_target(target), lambda: chain.check_q(q), lambda: (clock(), clock()), method,
-              lambda: inside_limits(q, chain.lower, chain.upper) and q.copy(),
-              lambda: chain.tip_errors(q, kind.position, kind.rotation, position_xyz, rotation_xyz),
-              lambda: IKResult(q, True, "", 0.0, 0.0, position_xyz, rotation_xyz, 0.0, 0, solver.name,
-                               candidate.extra))
+              lambda: evaluate(chain, kind, candidate, tolerances, 0.0, solver.name))
     return {"solve": lambda: solver.solve(target, q), "method": method,
             "fk": lambda: pin.framesForwardKinematics(chain.model, chain.data, q),
             **dict(zip(PHASES, phases, strict=True))}
@@ -141,11 +138,11 @@ def main() -> None:
         print(f"\nwhere one trivial solve's time goes (us, each step alone, best of {args.rounds} rounds):")
         timings = measure(args.calls, args.rounds, ("solve", *PHASES))
         names = list(timings)
-        print(f"{'step':34s}" + "".join(f"{name:>19s}" for name in names))
+        print(f"{'step':52s}" + "".join(f"{name:>19s}" for name in names))
         for label in (*PHASES, "rest (Python between the steps)", "solve"):
             values = [timings[name]["solve"] - sum(timings[name][p] for p in PHASES)
                       if label.startswith("rest") else timings[name][label] for name in names]
-            print(f"{label:34s}" + "".join(f"{value * 1e6:19.2f}" for value in values))
+            print(f"{label:52s}" + "".join(f"{value * 1e6:19.2f}" for value in values))
 
 
 if __name__ == "__main__":

@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 
 import wbik.d as d
 import wbik.kernels._k as compiled
+import wbik.kernels._x as compiled_cxx
 
 
 def f():
@@ -49,6 +50,7 @@ def package(tmp_path, monkeypatch) -> Path:
     root = tmp_path / "wbik"
     files = {"__init__.py": "", "a.py": A, "b.py": B, "c.py": "X = 1\n", "d.py": "class Thing: ...\n",
              "kernels/__init__.py": "", "kernels/_k.c": '#include "_h.h"\nint k;\n',
+             "kernels/_x.cpp": '#include "_h.h"\nint x;\n',
              "kernels/_h.h": "int h;\n"}
     for name, text in files.items():
         (root / name).parent.mkdir(parents=True, exist_ok=True)
@@ -58,7 +60,8 @@ def package(tmp_path, monkeypatch) -> Path:
 
 
 def test_the_fingerprint_follows_imports_and_kernels_not_typing(package):
-    assert set(code_digests(["wbik.a"])) == {"wbik.a", "wbik.b", "wbik.d", "kernels/_k.c", "kernels/_h.h"}
+    assert set(code_digests(["wbik.a"])) == {"wbik.a", "wbik.b", "wbik.d", "kernels/_k.c", "kernels/_x.cpp",
+                                             "kernels/_h.h"}
 
 
 def test_words_do_not_change_the_fingerprint_and_code_does(package):
@@ -80,7 +83,8 @@ def test_a_study_s_code_is_its_methods_robots_and_runner():
     digests = code_digests(study_code_roots(study))
     assert {"wbik.solvers.bounded_lm", "wbik.solvers.tracik", "wbik.robot_packages.golem3.model",
             "wbik.robot_packages.golem3.closed_form", "wbik.apps.golem3.thesis_solvers", "wbik.study.runner",
-            "wbik.study.chain_targets", "kernels/_lm_trial.c"} <= set(digests)
+            "wbik.study.chain_targets", "kernels/_lm_trial.c", "kernels/_chain_fk.cpp",
+            "kernels/_checked_errors.h"} <= set(digests)
     unused = {"wbik.solvers.mink", "wbik.solvers.eaik", "wbik.study.paths", "wbik.study.wholebody"}
     assert not unused & set(digests)
 

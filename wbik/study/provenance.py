@@ -59,7 +59,7 @@ def references(tree: ast.AST) -> tuple[set[str], set[str]]:
                      or _KERNEL.match(f"{node.module}.{alias.name}") else node.module for alias in node.names]
         else:
             names = []
-        for name in names:  # a compiled kernel (wbik.kernels._name) is its C source
+        for name in names:  # a compiled kernel (wbik.kernels._name) is its C or C++ source
             if _KERNEL.match(name):
                 kernels.add(name.rsplit(".", 1)[1] + ".c")
             else:
@@ -105,6 +105,8 @@ def code_digests(roots) -> dict[str, str]:
     while kernels:
         name = kernels.pop()
         path = folder / name
+        if not path.is_file() and path.suffix == ".c":  # a C++ kernel
+            name, path = name + "pp", folder / f"{name}pp"
         if f"kernels/{name}" in digests or not path.is_file():
             continue
         text = path.read_text(encoding="utf-8")
