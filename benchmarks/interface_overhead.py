@@ -61,6 +61,8 @@ could all fall inside one, while fifteen rounds spread over all chains rarely do
 PHASES = ("as_target", "start joints (check_q)", "the clock (2 perf_counter)", "the method",
           "the check (evaluate: limits, FK, errors, IKResult)")
 """The steps of a chain target's ``solve`` with the trivial method, in order (``--phases``)."""
+LABEL = 52
+"""The width of the phase table's first column."""
 
 
 def chain_loops(robot_name: str, chain_name: str) -> dict[str, Callable[[], object]]:
@@ -138,11 +140,11 @@ def main() -> None:
         print(f"\nwhere one trivial solve's time goes (us, each step alone, best of {args.rounds} rounds):")
         timings = measure(args.calls, args.rounds, ("solve", *PHASES))
         names = list(timings)
-        print(f"{'step':52s}" + "".join(f"{name:>19s}" for name in names))
+        print(f"{'step':{LABEL}s}" + "".join(f"{name:>19s}" for name in names))
         for label in (*PHASES, "rest (Python between the steps)", "solve"):
             values = [timings[name]["solve"] - sum(timings[name][p] for p in PHASES)
                       if label.startswith("rest") else timings[name][label] for name in names]
-            print(f"{label:52s}" + "".join(f"{value * 1e6:19.2f}" for value in values))
+            print(f"{label:{LABEL}s}" + "".join(f"{value * 1e6:19.2f}" for value in values))
 
 
 if __name__ == "__main__":

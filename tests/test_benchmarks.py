@@ -65,11 +65,11 @@ def test_the_interface_phases_cover_a_solve():
     assert completed.returncode == 0, completed.stderr[-3000:]
     sys.path.insert(0, str(ROOT / "benchmarks"))
     try:
-        from interface_overhead import CHAINS, PHASES
+        from interface_overhead import CHAINS, LABEL, PHASES
     finally:
         sys.path.remove(str(ROOT / "benchmarks"))
     table = completed.stdout.split("where one trivial solve's time goes")[1].splitlines()[2:]
-    rows = {line[:34].strip(): [float(value) for value in line[34:].split()]
+    rows = {line[:LABEL].strip(): [float(value) for value in line[LABEL:].split()]
             for line in table if line.strip()}
     assert set(rows) == {*PHASES, "rest (Python between the steps)", "solve"}
     for label in PHASES:
