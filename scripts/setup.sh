@@ -27,11 +27,11 @@ apt_install python3-pykdl chromium chromium-driver
 if [ ! -x .venv/bin/python ]; then
     "$PY" -m venv .venv
 fi
-# what the install step reads: the pins, the package's build files, the compiled kernels' sources, the
+# what the install step reads: the pins, the package's build files and backend, the kernels' sources, the
 # compilers present and WBIK_BUILD_CXX; when none changed since an install that built every kernel, it is
 # skipped (the C++ kernel takes about 12 s to compile). --reinstall-package: uv rebuilds an editable
 # package only when its build files change, not its kernels' sources.
-inputs=$( (cat requirements.lock pyproject.toml setup.py wbik/kernels/_*.c wbik/kernels/_*.cpp wbik/kernels/_*.h;
+inputs=$( (cat requirements.lock pyproject.toml setup.py build_backend/*.py wbik/kernels/_*.c wbik/kernels/_*.cpp wbik/kernels/_*.h;
            command -v gcc g++ || true; echo "WBIK_BUILD_CXX=${WBIK_BUILD_CXX:-1}") | sha256sum | cut -c1-16)
 if [ "$(cat .venv/.wbik-installed 2>/dev/null)" = "$inputs" ] && .venv/bin/python -c "import wbik" 2>/dev/null; then
     echo "setup: the pinned set and wbik's kernels are installed and up to date"

@@ -26,7 +26,8 @@ import pytest
 from wbik.kernels.twins import can_build
 
 ROOT = Path(__file__).resolve().parents[1]
-BUILD_INPUTS = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "wbik", "tasks", "urdf")
+BUILD_INPUTS = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "build_backend", "wbik", "tasks",
+                "urdf")
 TIMEOUT_S = 600
 UV = Path(sys.executable).parent / "uv"
 HAS_COMPILER = can_build()

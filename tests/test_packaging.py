@@ -4,6 +4,7 @@ extras are ranges (no ``==``), each peer is an extra and ``all`` holds every one
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -106,13 +107,20 @@ def test_the_first_qp_solve_imports_its_backend_where_it_is_needed():
     assert "daqp" in loaded and "qpsolvers" not in loaded  # DAQP is called directly
 
 
-def test_the_cxx_kernels_build_requirements_are_the_locked_pinocchio_and_one_eigen():
-    """The C++ kernel compiles Pinocchio's headers: build-system.requires pins the libpinocchio that the
-    lock's pin (the runtime binding the kernel must match bit for bit) depends on, and one Eigen."""
-    requires = [Requirement(text) for text in
-                tomllib.loads((ROOT / "pyproject.toml").read_text())["build-system"]["requires"]]
-    pinned = {canonicalize_name(r.name): str(r.specifier) for r in requires
-              if str(r.specifier).startswith("==")}
+def test_the_cxx_kernels_build_requirements_are_the_locked_pinocchio_and_one_eigen(monkeypatch):
+    """The C++ kernel compiles Pinocchio's headers: the build backend asks for the libpinocchio that the
+    lock's pin (the runtime binding the kernel must match bit for bit) depends on, and one Eigen; with
+    WBIK_BUILD_CXX=0 it asks for neither (a machine without them builds wbik)."""
+    monkeypatch.syspath_prepend(str(ROOT / "build_backend"))
+    import wbik_backend
+
+    backend = tomllib.loads((ROOT / "pyproject.toml").read_text())["build-system"]
+    assert backend["build-backend"] == "wbik_backend" and backend["backend-path"] == ["build_backend"]
+    pinned = {canonicalize_name(r.name): str(r.specifier) for r in map(Requirement, wbik_backend.CXX_HEADERS)}
     pins = _lock()
     assert pinned["libpinocchio"] == f"=={pins['libpinocchio']}" == f"=={pins['pin']}"
     assert pinned["cmeel-eigen"].startswith("==3.4.")
+    monkeypatch.setenv("WBIK_BUILD_CXX", "1")
+    assert wbik_backend.cxx_requirements() == (wbik_backend.CXX_HEADERS if shutil.which("c++") else [])
+    monkeypatch.setenv("WBIK_BUILD_CXX", "0")
+    assert wbik_backend.cxx_requirements() == []
