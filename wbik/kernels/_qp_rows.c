@@ -15,6 +15,11 @@
  *   row by row in a fixed order (so the result does not depend on the BLAS build).
  * - stack_rows and tighten_slice: StackedConstraints.add's and .tighten's copies, max and min (NumPy's
  *   bits, signed zeros and NaN included), each one call instead of several slice assignments.
+ * - the constraints' rows written in place by wbik.qp.row_plan: frame_rows' held form (a contact's
+ *   J dq = -e), polygon_rows (the CoM in its support polygon), position_bounds (joint limits on a step)
+ *   and step_box (the box opened and closed). Their twins are the constraints' own rows stacked by
+ *   StackedConstraints (tests/test_row_plan.py: the same bits but the polygon's two-term sums, which
+ *   BLAS may fuse).
  */
 #include "_buffers.h"
 #include <float.h>
@@ -96,15 +101,16 @@ static int index_view(PyObject *object, Py_buffer *view, const char *what)
 }
 
 /* frame_rows(rows, joint_jacobians, columns, translation, rotation, target_translation, target_rotation,
- *            jacobian, error) -> bool
+ *            jacobian, error[, lower]) -> bool
  * rows: 6 (pose: position rows, then rotation rows) or 3 (rotation rows only); joint_jacobians: (6, nv),
  * any strides (data.J); columns: the int64 indices of the columns in the frame's support (the others are
  * zero); translation (3,) and rotation (3, 3): the frame's world placement; target_translation (3,) (or
  * None when rows is 3) and target_rotation (3, 3): the target; jacobian: (rows, nv) and error (rows,),
- * writable, C-contiguous. False (nothing written) near a half turn. */
+ * writable, C-contiguous. With lower ((rows,), writable, C-contiguous), the rows of a frame held where
+ * it is, J dq = -e: error gets -e and lower a copy of it. False (nothing written) near a half turn. */
 static PyObject *frame_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (check_count("frame_rows", nargs, 9) < 0)
+    if (nargs != 10 && check_count("frame_rows", nargs, 9) < 0)
         return NULL;
     long rows = PyLong_AsLong(args[0]);
     if (rows == -1 && PyErr_Occurred())
@@ -131,7 +137,7 @@ static PyObject *frame_rows(PyObject *self, PyObject *const *args, Py_ssize_t na
         for (int j = 0; j < 3; j++)
             K[3 * i + j] = Jlog[3 * i] * R[3 * j] + Jlog[3 * i + 1] * R[3 * j + 1] + Jlog[3 * i + 2] * R[3 * j + 2];
 
-    Py_buffer views[4]; /* joint_jacobians, columns, jacobian, error */
+    Py_buffer views[5]; /* joint_jacobians, columns, jacobian, error, lower */
     int held = 0;
     PyObject *result = NULL;
     if (float64_view(args[1], &views[held], 0, "joint_jacobians") < 0)
@@ -152,6 +158,11 @@ static PyObject *frame_rows(PyObject *self, PyObject *const *args, Py_ssize_t na
     if (contiguous_view(args[8], &views[held], rows, 1, "error") < 0)
         goto done;
     held++;
+    if (nargs == 10) {
+        if (contiguous_view(args[9], &views[held], rows, 1, "lower") < 0)
+            goto done;
+        held++;
+    }
     const int64_t *indices = (const int64_t *)views[1].buf;
     const Py_ssize_t count = views[1].shape[0];
     for (Py_ssize_t k = 0; k < count; k++)
@@ -186,6 +197,11 @@ static PyObject *frame_rows(PyObject *self, PyObject *const *args, Py_ssize_t na
     }
     for (int i = 0; i < 3; i++)
         rotation_error[i] = log[i];
+    if (nargs == 10) {
+        double *lower = (double *)views[4].buf;
+        for (long i = 0; i < rows; i++)
+            lower[i] = e[i] = -e[i];
+    }
     result = Py_NewRef(Py_True);
 done:
     release_views(views, held);
@@ -367,10 +383,168 @@ done:
     return result;
 }
 
+/* NumPy's maximum and minimum on two doubles: a NaN from either side wins, and between equal values (+0
+ * and -0) the second operand. */
+static inline double numpy_max(double a, double b)
+{
+    return isnan(a) || isnan(b) ? (isnan(a) ? a : b) : (b >= a ? b : a);
+}
+
+static inline double numpy_min(double a, double b)
+{
+    return isnan(a) || isnan(b) ? (isnan(a) ? a : b) : (b <= a ? b : a);
+}
+
+/* polygon_rows(normals, offsets, com, com_jacobian, G, h): the CoM-in-polygon rows G = N J_xy and
+ * h = d - N c_xy; normals (m, 2), offsets (m,), com (3,) and com_jacobian (3, nv) any strides; G (m, nv)
+ * and h (m,) writable, C-contiguous. */
+static PyObject *polygon_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (check_count("polygon_rows", nargs, 6) < 0)
+        return NULL;
+    static const char *names[4] = {"normals", "com_jacobian", "G", "h"};
+    static const int argument[4] = {0, 3, 4, 5}, writable[4] = {0, 0, 1, 1};
+    Py_buffer views[4];
+    int held = 0;
+    PyObject *result = NULL;
+    double *offsets = NULL, com[3];
+    for (; held < 4; held++)
+        if (float64_view(args[argument[held]], &views[held], writable[held], names[held]) < 0)
+            goto done;
+    const Py_buffer *N = &views[0], *J = &views[1];
+    const Py_ssize_t m = N->ndim == 2 && N->shape[1] == 2 ? N->shape[0] : -1;
+    const Py_ssize_t nv = J->ndim == 2 && J->shape[0] == 3 ? J->shape[1] : -1;
+    if (m < 0 || nv < 0 || views[2].len != m * nv * (Py_ssize_t)sizeof(double)
+        || views[3].len != m * (Py_ssize_t)sizeof(double)) {
+        PyErr_SetString(PyExc_TypeError, "polygon_rows: expected normals (m, 2), com_jacobian (3, nv), "
+                                         "G (m, nv) and h (m,)");
+        goto done;
+    }
+    offsets = PyMem_Malloc((m + 1) * sizeof(double));
+    if (offsets == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    if (read_doubles(args[1], offsets, m, 0, "offsets") < 0 || read_doubles(args[2], com, 3, 0, "com") < 0)
+        goto done;
+    double *G = (double *)views[2].buf, *h = (double *)views[3].buf;
+    const char *normal = (const char *)N->buf, *jacobian = (const char *)J->buf;
+    for (Py_ssize_t i = 0; i < m; i++) {
+        double n0, n1;
+        memcpy(&n0, normal + i * N->strides[0], sizeof(double));
+        memcpy(&n1, normal + i * N->strides[0] + N->strides[1], sizeof(double));
+        for (Py_ssize_t j = 0; j < nv; j++) {
+            double x, y;
+            memcpy(&x, jacobian + j * J->strides[1], sizeof(double));
+            memcpy(&y, jacobian + J->strides[0] + j * J->strides[1], sizeof(double));
+            G[i * nv + j] = n0 * x + n1 * y;
+        }
+        h[i] = offsets[i] - (n0 * com[0] + n1 * com[1]);
+    }
+    result = Py_NewRef(Py_None);
+done:
+    PyMem_Free(offsets);
+    release_views(views, held);
+    return result;
+}
+
+/* position_bounds(q, q_index, v_index, lower, upper, lb, ub): a position limit on each step, for every k:
+ * lb[v_k] = max(lb[v_k], lower[k] - q[q_k]), ub[v_k] = min(ub[v_k], upper[k] - q[q_k]) (NumPy's maximum
+ * and minimum); q (nq,), lower and upper (k,) any strides; the indices int64; lb and ub (nv,) writable,
+ * C-contiguous. */
+static PyObject *position_bounds(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (check_count("position_bounds", nargs, 7) < 0)
+        return NULL;
+    Py_buffer views[7]; /* q, lower, upper, lb, ub, q_index, v_index */
+    static const char *names[5] = {"q", "lower", "upper", "lb", "ub"};
+    static const int argument[5] = {0, 3, 4, 5, 6}, writable[5] = {0, 0, 0, 1, 1};
+    int held = 0;
+    PyObject *result = NULL;
+    for (; held < 5; held++)
+        if (float64_view(args[argument[held]], &views[held], writable[held], names[held]) < 0)
+            goto done;
+    if (index_view(args[1], &views[held], "q_index") < 0)
+        goto done;
+    held++;
+    if (index_view(args[2], &views[held], "v_index") < 0)
+        goto done;
+    held++;
+    const Py_buffer *q = &views[0], *lower = &views[1], *upper = &views[2];
+    const Py_ssize_t count = views[5].shape[0], nq = q->ndim == 1 ? q->shape[0] : -1;
+    const Py_ssize_t nv = views[3].len / (Py_ssize_t)sizeof(double);
+    if (nq < 0 || views[6].shape[0] != count || lower->ndim != 1 || lower->shape[0] != count
+        || upper->ndim != 1 || upper->shape[0] != count || views[4].len != views[3].len) {
+        PyErr_SetString(PyExc_TypeError, "position_bounds: expected q (nq,), k indices and limits, lb and ub "
+                                         "(nv,)");
+        goto done;
+    }
+    const int64_t *q_index = (const int64_t *)views[5].buf, *v_index = (const int64_t *)views[6].buf;
+    for (Py_ssize_t k = 0; k < count; k++)
+        if (q_index[k] < 0 || q_index[k] >= nq || v_index[k] < 0 || v_index[k] >= nv) {
+            PyErr_SetString(PyExc_IndexError, "position_bounds: an index outside q or lb");
+            goto done;
+        }
+    double *lb = (double *)views[3].buf, *ub = (double *)views[4].buf;
+    const char *qs = (const char *)q->buf, *ls = (const char *)lower->buf, *us = (const char *)upper->buf;
+    for (Py_ssize_t k = 0; k < count; k++) {
+        double value, low, high;
+        memcpy(&value, qs + q_index[k] * q->strides[0], sizeof(double));
+        memcpy(&low, ls + k * lower->strides[0], sizeof(double));
+        memcpy(&high, us + k * upper->strides[0], sizeof(double));
+        lb[v_index[k]] = numpy_max(lb[v_index[k]], low - value);
+        ub[v_index[k]] = numpy_min(ub[v_index[k]], high - value);
+    }
+    result = Py_NewRef(Py_None);
+done:
+    release_views(views, held);
+    return result;
+}
+
+/* step_box(lb, ub, radius, close, toward_rest): close false: lb = -radius, ub = radius (the box a step
+ * starts from); close true: StackedConstraints.close_box, ub = max(ub, min(lb, 0)) first if toward_rest,
+ * then lb = min(lb, ub). lb and ub (nv,) writable, C-contiguous. */
+static PyObject *step_box(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (check_count("step_box", nargs, 5) < 0)
+        return NULL;
+    double radius;
+    int close = PyObject_IsTrue(args[3]), toward_rest = PyObject_IsTrue(args[4]);
+    if (close < 0 || toward_rest < 0 || read_float(args[2], &radius, "radius") < 0)
+        return NULL;
+    Py_buffer views[2];
+    int held = 0;
+    PyObject *result = NULL;
+    for (; held < 2; held++)
+        if (float64_view(args[held], &views[held], 1, held ? "ub" : "lb") < 0)
+            goto done;
+    if (views[0].len != views[1].len) {
+        PyErr_SetString(PyExc_TypeError, "step_box: lb and ub differ in length");
+        goto done;
+    }
+    double *lb = (double *)views[0].buf, *ub = (double *)views[1].buf;
+    const Py_ssize_t nv = views[0].len / (Py_ssize_t)sizeof(double);
+    for (Py_ssize_t i = 0; i < nv; i++) {
+        if (!close) {
+            lb[i] = -radius;
+            ub[i] = radius;
+            continue;
+        }
+        if (toward_rest)
+            ub[i] = numpy_max(ub[i], numpy_min(lb[i], 0.0));
+        lb[i] = numpy_min(lb[i], ub[i]);
+    }
+    result = Py_NewRef(Py_None);
+done:
+    release_views(views, held);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"frame_rows", (PyCFunction)(void (*)(void))frame_rows, METH_FASTCALL,
      "frame_rows(rows, joint_jacobians, columns, translation, rotation, target_translation, target_rotation, "
-     "jacobian, error) -> bool: a frame task's rows (False near a half turn: nothing written)"},
+     "jacobian, error[, lower]) -> bool: a frame task's rows, or a held frame's (False near a half turn: "
+     "nothing written)"},
     {"quadratic", (PyCFunction)(void (*)(void))quadratic, METH_FASTCALL,
      "quadratic(jacobian, row_scale, error, error_scale, diagonal, damping, weighted, hessian, gradient): "
      "one level's H and c"},
@@ -378,6 +552,12 @@ static PyMethodDef methods[] = {
      "stack_rows(matrix, upper, lower, start, n, rows, bounds, equality): StackedConstraints.add's copies"},
     {"tighten_slice", (PyCFunction)(void (*)(void))tighten_slice, METH_FASTCALL,
      "tighten_slice(lb, ub, start, lower, upper): StackedConstraints.tighten on a slice"},
+    {"polygon_rows", (PyCFunction)(void (*)(void))polygon_rows, METH_FASTCALL,
+     "polygon_rows(normals, offsets, com, com_jacobian, G, h): the CoM-in-polygon rows"},
+    {"position_bounds", (PyCFunction)(void (*)(void))position_bounds, METH_FASTCALL,
+     "position_bounds(q, q_index, v_index, lower, upper, lb, ub): position limits on a step"},
+    {"step_box", (PyCFunction)(void (*)(void))step_box, METH_FASTCALL,
+     "step_box(lb, ub, radius, close, toward_rest): the step box opened, or closed"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_qp_rows",

@@ -56,7 +56,8 @@ KERNELS = (
            ("Golem-III closed-form solve",)),
     Kernel("eaik", _eaik, "wbik.kernels.eaik (order_python, choose_python)", ("eaik method solve",)),
     Kernel("qp_rows", _qp_rows,
-           "wbik.qp.tasks, wbik.qp.step, wbik.qp.backends (Pinocchio and NumPy)",
+           "wbik.qp.tasks, wbik.qp.step, wbik.qp.backends, and through wbik.qp.row_plan the rows of "
+           "wbik.qp.contacts, wbik.qp.balance and wbik.qp.limits (Pinocchio and NumPy)",
            ("whole-body QP step", "converged whole-body IK")),
     Kernel("lm_trial", _lm_trial,
            "wbik.solvers.levenberg_marquardt.LevenbergMarquardt.trial (NumPy and LAPACK), "

@@ -128,6 +128,15 @@ class StackedConstraints:
         self._lb, self._ub = self._lower[:n], self._upper[:n]  # views of the simple bounds
         self._scratch, self._zeros = np.zeros(n), np.zeros(n)
 
+    def __getstate__(self) -> dict:
+        """Without the views of the buffers (a copy's views must be of its own buffers: ``__setstate__``)."""
+        return {name: value for name, value in self.__dict__.items() if name not in ("_lb", "_ub", "_views")}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._lb, self._ub = self._lower[:self.n], self._upper[:self.n]
+        self._views = None
+
     def _grow(self, capacity: int) -> None:
         """Larger buffers, keeping the rows already added."""
         used = self.n + self.rows
@@ -254,6 +263,10 @@ class DaqpWorkspace:
 
         self._models: dict[bytes, object] = {}
         self._new_model = daqp.Model
+
+    def __getstate__(self) -> dict:
+        """Without DAQP's models (its workspaces cannot be copied): a copy starts its own, cold."""
+        return {**self.__dict__, "_models": {}}
 
     def solve(self, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints) -> np.ndarray:
         if constraints.rows == 0:  # (daqp.Model.update cannot take an empty general matrix)

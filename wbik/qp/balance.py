@@ -2,19 +2,23 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from wbik.kernels.twins import chosen, compiled_twin
 from wbik.qp.constraint import SLACK, InequalityConstraint, Measure, StartViolation
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.rows import InequalityRows, RowLabel
+from wbik.qp.rows import InequalityRows, RowLabel, StackedRows
 from wbik.qp.support_polygon import (
     DegenerateSupport,
     SupportPolygon,
     feet_support_polygon,
     feet_support_region,
 )
+
+_POLYGON_ROWS = compiled_twin("qp_rows", "polygon_rows")
+"""The compiled twin of CoMInSupportPolygon.inequality (None where it is not built)."""
 
 
 class CoMInSupportPolygon(InequalityConstraint):
@@ -57,6 +61,22 @@ class CoMInSupportPolygon(InequalityConstraint):
     def inequality(self, kinematics: Kinematics) -> InequalityRows:
         return InequalityRows(self.normals.dot(kinematics.com_jacobian()[:2]),
                               self.offsets - self.projected(kinematics))
+
+    def compiled_rows(self, kinematics: Kinematics, rows: StackedRows) -> Callable[[], bool] | None:
+        """``inequality``'s G and h written by one kernel call (False once the polygon's edges changed)."""
+        kernel = chosen(None, _POLYGON_ROWS, "qp_rows")
+        count = len(self.offsets) if hasattr(self, "offsets") else -1
+        if kernel is None or rows.matrix.shape[0] != count:
+            return None
+        G, h = rows.matrix, rows.upper
+
+        def write() -> bool:
+            if len(self.offsets) != count:
+                return False
+            kernel(self.normals, self.offsets, *kinematics.com_and_jacobian(), G, h)
+            return True
+
+        return write
 
     def labels(self, kinematics: Kinematics, rows) -> list[RowLabel]:
         inside = self.polygon.offsets - self.projected(kinematics)

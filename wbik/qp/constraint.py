@@ -6,14 +6,14 @@ check, and words for their own rows (``labels``, ``row_text``, ``blocker_text``,
 from __future__ import annotations
 
 import math
-from collections.abc import Collection
+from collections.abc import Callable, Collection
 from dataclasses import asdict, dataclass
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows, RowLabel, Rows
+from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows, RowLabel, Rows, StackedRows
 
 SLACK = 1e-9
 """How far (m or rad) a configuration may be past a constraint's edge and still satisfy it (rounding)."""
@@ -107,6 +107,14 @@ class Constraint(Describer):
         """This constraint's rows at the kinematics' q (``dt``: the control period, for velocities)."""
         raise NotImplementedError(f"{type(self).__name__} must derive from BoundConstraint, "
                                   "EqualityConstraint or InequalityConstraint and implement its method")
+
+    def compiled_rows(self, kinematics: Kinematics, rows: StackedRows) -> Callable[[], bool | None] | None:
+        """A call that writes this constraint's rows at the kinematics' q (as ``rows(kinematics, dt)`` gives
+        them, for any dt) straight into ``rows``, through compiled kernels, at every later step and start of
+        the same problem; it returns False where it cannot (its count of rows changed, say: nothing is
+        then taken from it, the step builds every row through ``rows`` and asks again). None (the default):
+        no such call, every step builds the rows in Python."""
+        return None
 
     def labels(self, kinematics: Kinematics, rows: Rows) -> list:
         """One RowLabel per row of ``rows`` (a bound constraint: a (lower, upper) pair per index)."""

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.qp.constraint import EqualityConstraint, Measure, StepBox
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.rows import EqualityRows, RowLabel
+from wbik.qp.rows import EqualityRows, RowLabel, StackedRows
 from wbik.qp.tasks import FrameTask, PositionTask
 
 
@@ -100,6 +101,15 @@ class Contact(HeldFrame):
         """J dq = -e (buffers reused at the next configuration: copy them to keep them)."""
         self._rows(kinematics)
         return EqualityRows(self._jacobian, self._rhs)
+
+    def compiled_rows(self, kinematics: Kinematics, rows: StackedRows) -> Callable[[], bool] | None:
+        """``equality``'s J and b = -e written by the frame task's kernel (False near a half turn)."""
+        task = self._task
+        frame_rows = task._compiled_rows if task._compiled_for is kinematics else None
+        if frame_rows is None or rows.matrix.shape[0] != 6:
+            return None
+        J, upper, lower = rows.matrix, rows.upper, rows.lower
+        return lambda: frame_rows(task._target_translation, task._target_rotation, J, upper, lower)
 
     def violation(self, kinematics: Kinematics) -> float:
         self._rows(kinematics)

@@ -98,6 +98,13 @@ class Kinematics:
             self._update_com()
         return self.data.Jcom
 
+    def com_and_jacobian(self) -> tuple[np.ndarray, np.ndarray]:
+        """(centre of mass (3,), its 3 x nv Jacobian) in one call (copies the binding makes of data's)."""
+        if not self._com_ready:
+            self._update_com()
+        data = self.data
+        return data.com[0], data.Jcom
+
     def integrate(self, dq: np.ndarray) -> np.ndarray:
         """q (+) dq on the configuration manifold (a new array)."""
         return pin.integrate(self.model, self.q, dq)

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Collection, Sequence
+from collections.abc import Callable, Collection, Sequence
+from functools import partial
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.errors import RobotDescriptionError
+from wbik.kernels.twins import chosen, compiled_twin
 from wbik.qp.constraint import (
     SLACK,
     BoundConstraint,
@@ -17,7 +19,10 @@ from wbik.qp.constraint import (
     tangent_names,
 )
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.rows import BoundRows, RowLabel, as_index
+from wbik.qp.rows import BoundRows, RowLabel, StackedRows, as_index
+
+_POSITION_BOUNDS = compiled_twin("qp_rows", "position_bounds")
+"""The compiled twin of JointPositionLimits.bounds tightening the step's box (None where it is not built)."""
 
 
 class RateLimits(BoundConstraint):
@@ -62,6 +67,16 @@ class JointPositionLimits(BoundConstraint):
     def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
         q = kinematics.q[self._q_rows]
         return BoundRows(self._v_rows, self.lower - q, self.upper - q)
+
+    def compiled_rows(self, kinematics: Kinematics, rows: StackedRows) -> Callable[[], None] | None:
+        """The box tightened by ``bounds`` in one kernel call on the kinematics' own q."""
+        kernel = chosen(None, _POSITION_BOUNDS, "qp_rows")
+        if kernel is None:
+            return None
+        self.bind(kinematics.model)
+        q_index, v_index = (np.ascontiguousarray(index, dtype=np.int64)
+                            for index in (self.q_index, self.v_index))
+        return partial(kernel, kinematics.q, q_index, v_index, self.lower, self.upper, rows.lb, rows.ub)
 
     def label_values(self, kinematics: Kinematics, rows: BoundRows) -> tuple[list, list, list, list]:
         return (self.v_index.tolist(), kinematics.q[self.q_index].tolist(), self.lower.tolist(),

@@ -128,7 +128,7 @@ class IKProblem:
             self.kinematics.update(q)
         if profile is not None:
             self.kinematics.com()  # (lazy) here, so that "constraints" only builds rows
-        lap(profile, "kinematics", tick)
+            lap(profile, "kinematics", tick)
         if velocity is not None:
             for constraint in self._memories:
                 constraint.velocity = np.asarray(velocity, dtype=float).reshape(self.nv).copy()

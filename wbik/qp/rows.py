@@ -47,6 +47,17 @@ class BoundRows(NamedTuple):
 Rows = EqualityRows | InequalityRows | BoundRows
 
 
+class StackedRows(NamedTuple):
+    """Where one constraint's rows stand in the stacked QP (views of its buffers): its general rows'
+    ``matrix`` (k x nv), their ``upper`` and ``lower`` bounds (k), and the step's box ``lb``, ``ub`` (nv)."""
+
+    matrix: np.ndarray
+    upper: np.ndarray
+    lower: np.ndarray
+    lb: np.ndarray
+    ub: np.ndarray
+
+
 @dataclass(frozen=True)
 class RowLabel:
     """What one row stands for: its ``constraint``'s name and ``kind``, its ``subject`` (a joint, contact,

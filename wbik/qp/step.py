@@ -21,6 +21,7 @@ from wbik.errors import NoQPSolutionError
 from wbik.kernels.twins import chosen, compiled_twin
 from wbik.qp.constraint import Constraint
 from wbik.qp.kinematics import Kinematics
+from wbik.qp.row_plan import RowPlan
 from wbik.qp.tasks import Task
 
 _QUADRATIC = compiled_twin("qp_rows", "quadratic")
@@ -159,6 +160,15 @@ class QPStep:
         self._filled = -1
         self._augmented: dict[int, backends.StackedConstraints] = {}
         self._constraint_rows = 0  # general rows of the constraints in the stack (the levels' follow)
+        # the constraints' rows by compiled calls, made after their first Python build; kept across starts
+        # (each writer checks its own rows) until a writer cannot write
+        self._plan: RowPlan | None = None
+        self._planned = False
+        self._single: Level | None = None  # the one level, when it is the only one and has no inequality task
+
+    def __getstate__(self) -> dict:
+        """Without the row plan: its calls hold views of this step's buffers (a copy makes its own)."""
+        return {**self.__dict__, "_plan": None, "_planned": False}
 
     def start(self) -> None:
         """Lay out every priority level's rows (tasks know their dimension once started)."""
@@ -169,6 +179,9 @@ class QPStep:
             self.levels = [Level([t for t in self.tasks if t.priority == p], self.nv) for p in priorities]
             self._layout = key
         self._filled = -1
+        first = self.levels[0]
+        self._single = first if len(self.levels) == 1 and not first.inequalities else None
+        self._planned = self._plan is not None  # (no plan yet: asked again, the constraints now started)
 
     def fill_tasks(self) -> None:
         """Every level's J and e at the kinematics' q (once per configuration)."""
@@ -185,17 +198,30 @@ class QPStep:
                           recover: bool = True) -> backends.StackedConstraints:
         """Every constraint's rows at q, stacked; ``recover``: see ``StackedConstraints.close_box``."""
         stack = self.stack
+        if self._plan is not None and self._plan.write(radius, recover):
+            self._constraint_rows = stack.rows
+            return stack
         stack.clear(radius)
-        kinematics = self.kinematics
+        kinematics, spans = self.kinematics, []
         for constraint in self.constraints:
+            start = stack.rows
             constraint.rows(kinematics, dt).add_to(stack)
+            spans.append((start, stack.rows))
         stack.close_box(recover)
         self._constraint_rows = stack.rows
+        if not self._planned or self._plan is not None:  # (a plan that stopped writing is made again)
+            self._plan = RowPlan.compile(stack, self.constraints, kinematics, spans)
+            self._planned = True
         return stack
 
     def solve(self, dt: float, radius: float, profile: dict[str, float] | None = None,
               recover: bool = True) -> np.ndarray:
         """dq at the kinematics' q (``recover``: see :meth:`build_constraints`); NoQPSolutionError."""
+        if profile is None and (level := self._single) is not None:  # (the loop below, with one level)
+            stack = self.build_constraints(dt, radius, recover)
+            self.fill_tasks()
+            H, c = level.quadratic(self.damping + self.lm_damping * level.goal_cost())
+            return self._solve_relaxed(H, c, stack)
         tick = time.perf_counter() if profile is not None else 0.0
         stack = self.build_constraints(dt, radius, recover)
         tick = lap(profile, "constraints", tick)
