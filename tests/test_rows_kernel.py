@@ -138,6 +138,16 @@ def test_quadratic_agrees_with_numpy():
         assert np.abs(hessian - expected_hessian).max() <= AGREE * max(1.0, np.abs(expected_hessian).max())
         assert np.array_equal(hessian, hessian.T)
         assert np.abs(gradient - expected_weighted.T @ (error * error_scale)).max(initial=0.0) <= AGREE * 10
+        # the Levenberg-Marquardt damping on the goal rows' errors (a NaN on another row does not count)
+        goal_rows = (rng.random(m) < 0.5).astype(float)
+        if m:
+            error[np.argmin(goal_rows)] = np.nan if goal_rows.min() == 0.0 else error[0]
+        qp_step._QUADRATIC(jacobian, row_scale, error, error_scale, diagonal, 1e-6, weighted, hessian,
+                           gradient, goal_rows, 0.3)
+        goals = error[goal_rows == 1.0]
+        damped = np.diag(hessian) - np.diag(expected_weighted.T @ expected_weighted) - diagonal
+        scale = max(1.0, np.abs(hessian).max())
+        assert np.abs(damped - (1e-6 + 0.3 * goals.dot(goals))).max() <= AGREE * scale
 
 
 def test_bad_buffers_are_refused_with_the_argument_named():

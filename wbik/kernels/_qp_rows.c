@@ -208,16 +208,20 @@ done:
     return result;
 }
 
-/* quadratic(jacobian, row_scale, error, error_scale, diagonal, damping, weighted, hessian, gradient)
+/* quadratic(jacobian, row_scale, error, error_scale, diagonal, damping, weighted, hessian, gradient
+ *           [, goal_rows, lm_damping])
  * jacobian (m, nv); row_scale, error, error_scale (m,); diagonal (nv,); writes W = row_scale * J into
  * weighted (m, nv), H = W^T W + diag(diagonal + damping) into hessian (nv, nv) and c = W^T (error_scale *
- * error) into gradient (nv,). Inputs any strides; outputs writable and C-contiguous. */
+ * error) into gradient (nv,). With goal_rows ((m,): 1 on a goal task's rows, else 0) and lm_damping,
+ * the damping is damping + lm_damping * sum(goal_rows * error^2) (the Levenberg-Marquardt term, summed
+ * row by row). Inputs any strides; outputs writable and C-contiguous. */
 static PyObject *quadratic(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (check_count("quadratic", nargs, 9) < 0)
+    if (nargs != 11 && check_count("quadratic", nargs, 9) < 0)
         return NULL;
-    double damping;
-    if (read_float(args[5], &damping, "damping") < 0)
+    double damping, lm_damping = 0.0;
+    if (read_float(args[5], &damping, "damping") < 0 || (nargs == 11 && read_float(args[10], &lm_damping,
+                                                                                    "lm_damping") < 0))
         return NULL;
     Py_buffer views[3]; /* hessian, weighted, gradient */
     int held = 0;
@@ -243,7 +247,7 @@ static PyObject *quadratic(PyObject *self, PyObject *const *args, Py_ssize_t nar
         goto done;
     held++;
     double *H = (double *)views[0].buf, *W = (double *)views[1].buf, *c = (double *)views[2].buf;
-    scales = PyMem_Malloc((3 * m + nv + 1) * sizeof(double));
+    scales = PyMem_Malloc((4 * m + nv + 1) * sizeof(double));
     if (scales == NULL) {
         PyErr_NoMemory();
         goto done;
@@ -253,6 +257,15 @@ static PyObject *quadratic(PyObject *self, PyObject *const *args, Py_ssize_t nar
         || read_doubles(args[2], e, m, 0, "error") < 0 || read_doubles(args[3], error_scale, m, 0, "error_scale") < 0
         || read_doubles(args[4], diagonal, nv, 0, "diagonal") < 0)
         goto done;
+    if (nargs == 11) { /* the goal rows' cost, on the errors before they are scaled below */
+        double *goal = scales + 3 * m + nv, cost = 0.0;
+        if (read_doubles(args[9], goal, m, 0, "goal_rows") < 0)
+            goto done;
+        for (Py_ssize_t i = 0; i < m; i++)
+            if (goal[i] != 0.0) /* (the other rows do not count, a NaN there included) */
+                cost += e[i] * e[i];
+        damping += lm_damping * cost;
+    }
     for (Py_ssize_t i = 0; i < m; i++) {
         for (Py_ssize_t a = 0; a < nv; a++)
             W[i * nv + a] *= row_scale[i];
@@ -546,8 +559,8 @@ static PyMethodDef methods[] = {
      "jacobian, error[, lower]) -> bool: a frame task's rows, or a held frame's (False near a half turn: "
      "nothing written)"},
     {"quadratic", (PyCFunction)(void (*)(void))quadratic, METH_FASTCALL,
-     "quadratic(jacobian, row_scale, error, error_scale, diagonal, damping, weighted, hessian, gradient): "
-     "one level's H and c"},
+     "quadratic(jacobian, row_scale, error, error_scale, diagonal, damping, weighted, hessian, gradient"
+     "[, goal_rows, lm_damping]): one level's H and c"},
     {"stack_rows", (PyCFunction)(void (*)(void))stack_rows, METH_FASTCALL,
      "stack_rows(matrix, upper, lower, start, n, rows, bounds, equality): StackedConstraints.add's copies"},
     {"tighten_slice", (PyCFunction)(void (*)(void))tighten_slice, METH_FASTCALL,

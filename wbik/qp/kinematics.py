@@ -53,7 +53,7 @@ class Kinematics:
     def update(self, q: np.ndarray) -> None:
         """Forward kinematics and joint Jacobians at q (the CoM waits until it is asked for)."""
         if q is not self.q:
-            self.q[:] = q
+            np.copyto(self.q, q)
         pin.computeJointJacobians(self.model, self.data, self.q)
         pin.updateFramePlacements(self.model, self.data)
         self._com_ready = False
@@ -83,27 +83,28 @@ class Kinematics:
         return pin.getFrameJacobian(self.model, self.data, frame_id, LOCAL)
 
     def _update_com(self) -> None:
-        pin.jacobianCenterOfMass(self.model, self.data, False)  # (data's joint Jacobians: no second pass)
+        # (data's joint Jacobians: no second pass; the binding's copies kept until the next update)
+        self._com_jacobian = pin.jacobianCenterOfMass(self.model, self.data, False)
+        self._com = self.data.com[0]
         self._com_ready = True
 
     def com(self) -> np.ndarray:
-        """Centre of mass in world coordinates (3,)."""
+        """Centre of mass in world coordinates (3,; the same array until the next update: read it only)."""
         if not self._com_ready:
             self._update_com()
-        return self.data.com[0]
+        return self._com
 
     def com_jacobian(self) -> np.ndarray:
-        """3 x nv Jacobian of the centre of mass."""
+        """3 x nv Jacobian of the centre of mass (the same array until the next update: read it only)."""
         if not self._com_ready:
             self._update_com()
-        return self.data.Jcom
+        return self._com_jacobian
 
     def com_and_jacobian(self) -> tuple[np.ndarray, np.ndarray]:
-        """(centre of mass (3,), its 3 x nv Jacobian) in one call (copies the binding makes of data's)."""
+        """(``com()``, ``com_jacobian()``) in one call."""
         if not self._com_ready:
             self._update_com()
-        data = self.data
-        return data.com[0], data.Jcom
+        return self._com, self._com_jacobian
 
     def integrate(self, dq: np.ndarray) -> np.ndarray:
         """q (+) dq on the configuration manifold (a new array)."""

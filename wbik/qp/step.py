@@ -88,6 +88,10 @@ class Level:
         self._task_rows += [(task, self.inequality_jacobian[rows], self.inequality_error[rows])
                             for task, rows in inequality_rows]
         self.goal_errors = [(task, self.error[rows]) for task, rows in stacked_rows if task.goal]
+        self._goal_views = [error for _, error in self.goal_errors]
+        self._goal_rows = np.zeros(stop)  # 1 on the goal tasks' rows (the compiled quadratic's goal cost)
+        for task, rows in stacked_rows:
+            self._goal_rows[rows] = 1.0 if task.goal else 0.0
         self.weight = _joined([task.weight for task in stacked])
         self.row_scale = np.sqrt(self.weight)[:, None]
         self._row_scale = self.row_scale[:, 0]  # (a contiguous view: the kernel's 1-D form)
@@ -101,8 +105,12 @@ class Level:
     def goal_cost(self) -> float:
         """sum |e|^2 over the goal tasks (|max(0, e)|^2 for an inequality task)."""
         cost = 0.0
-        for _, error in self.goal_errors:
+        for error in self._goal_views:
             cost += float(error.dot(error))
+        return cost + self._inequality_goal_cost() if self.inequality_goal_errors else cost
+
+    def _inequality_goal_cost(self) -> float:
+        cost = 0.0
         for _, error in self.inequality_goal_errors:
             excess = np.maximum(error, 0.0)
             cost += float(excess.dot(excess))
@@ -127,13 +135,18 @@ class Level:
         """(J, -g e) of the inequality tasks: their rows J dq + w... as J dq - w <= -g e."""
         return self.inequality_jacobian, -self.inequality_gain * self.inequality_error
 
-    def quadratic(self, damping: float) -> tuple[np.ndarray, np.ndarray]:
-        """H = (sqrt(w) J)^T (sqrt(w) J) + diag(constant diagonal + damping), c = (sqrt(w) J)^T (g sqrt(w) e)
-        in reused buffers; ``weighted`` holds sqrt(w) J afterwards."""
+    def quadratic(self, damping: float, lm_damping: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """H = (sqrt(w) J)^T (sqrt(w) J) + diag(constant diagonal + damping + lm_damping * goal_cost()),
+        c = (sqrt(w) J)^T (g sqrt(w) e) in reused buffers; ``weighted`` holds sqrt(w) J afterwards."""
         if self._compiled_quadratic is not None:
+            if self.inequality_goal_errors:  # (their cost in Python, the stacked goals' in the kernel)
+                damping += lm_damping * self._inequality_goal_cost()
             self._compiled_quadratic(self.jacobian, self._row_scale, self.error, self.error_scale,
-                                     self.diagonal, damping, self.weighted, self.hessian, self.gradient)
+                                     self.diagonal, damping, self.weighted, self.hessian, self.gradient,
+                                     self._goal_rows, lm_damping)
             return self.hessian, self.gradient
+        if lm_damping:
+            damping += lm_damping * self.goal_cost()
         weighted = np.multiply(self.jacobian, self.row_scale, out=self.weighted)
         H = weighted.T.dot(weighted, out=self.hessian)
         self._hessian_diagonal += self.diagonal + damping
@@ -220,7 +233,7 @@ class QPStep:
         if profile is None and (level := self._single) is not None:  # (the loop below, with one level)
             stack = self.build_constraints(dt, radius, recover)
             self.fill_tasks()
-            H, c = level.quadratic(self.damping + self.lm_damping * level.goal_cost())
+            H, c = level.quadratic(self.damping, self.lm_damping)
             return self._solve_relaxed(H, c, stack)
         tick = time.perf_counter() if profile is not None else 0.0
         stack = self.build_constraints(dt, radius, recover)
