@@ -42,7 +42,7 @@ def setup(name: str):
     from wbik.motion.walking.footsteps import StepCommand
     from wbik.motion.walking.scenario import _spec_objects
     from wbik.motion.walking.timeline import Timing
-    from wbik.scenario_schema import validate
+    from wbik.scenarios.schema import validate
     from wbik.scenarios.kinds import robot_of, start_of
 
     spec = validate(spec_of(name), name)

@@ -289,7 +289,7 @@ def test_a_foot_into_a_riser_is_refused(robot):
 
 
 def test_schema_refuses_unknown_stair_keys():
-    from wbik.scenario_schema import validate
+    from wbik.scenarios.schema import validate
     from wbik.scenarios.kinds import UnknownScenarioKeyError
 
     with pytest.raises(UnknownScenarioKeyError):

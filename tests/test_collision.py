@@ -14,7 +14,7 @@ import wbik
 from wbik.collision import CollisionModel, Obstacle, Primitive, box, capsule, robot_collision_model
 from wbik.errors import InvalidSettingError, RobotDescriptionError, UnknownFrameError, WbikError
 from wbik.qp import CollisionAvoidance, IKProblem, JointPositionLimits, Kinematics, PositionTask
-from wbik.scenario_schema import validate
+from wbik.scenarios.schema import validate
 from wbik.scenarios import load_scenario, run_scenario
 from wbik.scenarios.kinds import ScenarioValueError
 

@@ -5,7 +5,7 @@ Layers, from the bottom (see docs/architecture.md):
 - core (``LAYERS``, from the bottom): foundations (errors, dependencies, validation, schema, options,
   geometry, files, targets, registry, data, kernels); kinematics (dh, urdf, kinematic_tree, robot, models,
   collision, mujoco_model); solving (solvers, qp, wholebody); uses of solving (motion, study, viz,
-  expectations, scenario_schema, scenarios);
+  expectations, scenarios);
 - robot packages: ``wbik.robot_packages`` (each robot's model, URDF and closed-form binding), which use
   the core;
 - applications: ``wbik.apps`` (Golem-III, Pincher, Bioloid, riveting), which use the core and the
@@ -17,7 +17,8 @@ Layers, from the bottom (see docs/architecture.md):
 Each import is classified as *top-level* (module body, class bodies, ``try``/``if`` at module level),
 *function-level* (the lazy imports that keep optional dependencies optional) or *typing* (under
 ``if TYPE_CHECKING:``). ``from A import B`` imports A (a package: its ``__init__``) and, when B is a
-module, A.B too.
+module, A.B too; importing a.b.c runs the packages a and a.b first, which counts as importing them too
+(but for the importer's own packages, which are then already running).
 
 Checked: (a) no import cycle of any kind, every level counted; (b) no module imports its own package
 (it imports the defining module); (c) the project's own modules are imported by name, never named by a
@@ -38,8 +39,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "wbik"
 CORE = ("wbik.errors", "wbik.dependencies", "wbik.peer_output", "wbik.validation", "wbik.schema",
         "wbik.options", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry", "wbik.kernels",
         "wbik.robot", "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion",
-        "wbik.study", "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.scenario_schema",
-        "wbik.expectations", "wbik.scenarios", "wbik.urdf", "wbik.kinematic_tree", "wbik.mujoco_model")
+        "wbik.study", "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.expectations", "wbik.scenarios", "wbik.urdf", "wbik.kinematic_tree", "wbik.mujoco_model")
 ROBOT_PACKAGES = ("wbik.robot_packages",)
 APPLICATIONS = ("wbik.apps", *ROBOT_PACKAGES)  # what the core must not import (robot packages too)
 ENTRY_POINTS = ("wbik.cli", "wbik.commands", "wbik.catalog")
@@ -49,7 +49,7 @@ LAYERS = (  # the core's layers, from the bottom; a module imports its own layer
     ("wbik.dh", "wbik.urdf", "wbik.kinematic_tree", "wbik.robot", "wbik.models", "wbik.collision",
      "wbik.mujoco_model"),
     ("wbik.solvers", "wbik.qp", "wbik.wholebody"),
-    ("wbik.motion", "wbik.study", "wbik.viz", "wbik.expectations", "wbik.scenario_schema", "wbik.scenarios"),
+    ("wbik.motion", "wbik.study", "wbik.viz", "wbik.expectations", "wbik.scenarios"),
 )
 TOP = len(LAYERS)  # the facade, the catalog and the command line
 
@@ -80,6 +80,11 @@ def _imports_of(name: str, path: Path, is_package: bool, known: set[str]) -> lis
     def add(target: str, level: str, line: int) -> None:
         if target in known:
             found.append(Import(name, target, level, line))
+            parts = target.split(".")
+            for end in range(1, len(parts)):  # importing a.b.c runs a's and a.b's __init__ first
+                parent = ".".join(parts[:end])
+                if parent in known and name != parent and not name.startswith(parent + "."):
+                    found.append(Import(name, parent, level, line))  # (one's own packages: already run)
 
     def absolute(node: ast.ImportFrom) -> str:
         if not node.level:

@@ -12,7 +12,7 @@ import yaml
 
 import wbik
 from wbik.errors import InvalidOptionError, InvalidSettingError
-from wbik.scenario_schema import validate
+from wbik.scenarios.schema import validate
 from wbik.scenarios.kinds import ScenarioValueError
 from wbik.study.definition import load_study
 from wbik.study.spec import StudyDefinitionError

@@ -40,7 +40,7 @@ def talos():
     """Talos with its soles and start as tasks/talos_reach.yaml gives them."""
     from pathlib import Path
 
-    from wbik.scenario_schema import validate
+    from wbik.scenarios.schema import validate
     from wbik.scenarios import load_scenario
     from wbik.scenarios.kinds import robot_of, start_of
 

@@ -20,7 +20,7 @@ import pytest
 
 import wbik
 from wbik.errors import MissingDependencyError
-from wbik.scenario_schema import Robot, common_keys, validate
+from wbik.scenarios.schema import Robot, common_keys, validate
 from wbik.scenarios import (
     ScenarioKind,
     ScenarioReport,

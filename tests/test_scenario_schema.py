@@ -1,4 +1,4 @@
-"""Scenario files are checked against one schema (wbik.scenario_schema) before anything runs.
+"""Scenario files are checked against one schema (wbik.scenarios.schema) before anything runs.
 
 Every file in tasks/ validates (no solving here); each hostile input raises its typed error naming
 the file and the key's path; ``wbik run BAD.yaml`` exits 2 without a traceback.
@@ -22,7 +22,7 @@ from wbik.errors import (
     WbikError,
 )
 from wbik.expectations import ExpectationError
-from wbik.scenario_schema import validate
+from wbik.scenarios.schema import validate
 from wbik.scenarios import load_scenario, run_scenario
 from wbik.scenarios.kinds import (
     KIND_REGISTRY,

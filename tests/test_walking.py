@@ -269,7 +269,7 @@ def test_talos_walk_file_passes_with_its_expectations():
 
 
 def test_walk_schema_refuses_unknown_keys_with_a_guess():
-    from wbik.scenario_schema import validate
+    from wbik.scenarios.schema import validate
     from wbik.scenarios.kinds import UnknownScenarioKeyError
 
     with pytest.raises(UnknownScenarioKeyError, match="did you mean 'clearance'"):
@@ -319,7 +319,7 @@ def test_a_robot_without_package_shapes_gets_its_legs_kept_apart_from_the_task_f
     from wbik.data import shipped_tasks
     from wbik.motion.walking.scenario import _spec_objects
     from wbik.motion.walking.tracking import leg_collision_model
-    from wbik.scenario_schema import validate
+    from wbik.scenarios.schema import validate
 
     spec = validate(yaml.safe_load(shipped_tasks()["talos_walk"].read_text()), "talos_walk.yaml")
     robot = wbik.load(spec["robot"], **spec["robot_params"])

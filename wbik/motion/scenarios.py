@@ -17,7 +17,7 @@ from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
 from wbik.motion.trajectory import make_trajectory
 from wbik.qp.task_entries import VECTOR3
-from wbik.scenario_schema import (
+from wbik.scenarios.schema import (
     START,
     Method,
     Robot,

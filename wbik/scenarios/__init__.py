@@ -35,7 +35,7 @@ def _spec(path: Path):
 
 def load_scenario(path: str | Path) -> dict:
     """A scenario file's mapping (``name`` defaults to the file's stem), checked against its kind's schema."""
-    from wbik.scenario_schema import validate  # (it imports this package's kinds)
+    from wbik.scenarios.schema import validate  # (it imports this package's kinds)
 
     spec = _spec(Path(path))
     validate(spec, str(path))  # (a ScenarioFileError for anything but a mapping)
@@ -45,7 +45,7 @@ def load_scenario(path: str | Path) -> dict:
 def run_scenario_report(scenario: str | Path | dict, output: str | Path | None = None,
                         source: str | None = None) -> ScenarioReport:
     """The :class:`ScenarioReport` of a scenario (file or dict); ``output``: the JSON report, each phase."""
-    from wbik.scenario_schema import validate
+    from wbik.scenarios.schema import validate
 
     spec = scenario if isinstance(scenario, dict) else _spec(Path(scenario))
     named = str(scenario) if spec is not scenario else f"scenario {spec.get('name') or spec.get('kind')!r}"

@@ -27,7 +27,7 @@ from wbik.qp.task_entries import (
     TaskEntryError,
     build_task,
 )
-from wbik.scenario_schema import (
+from wbik.scenarios.schema import (
     START,
     Robot,
     apply_soles,

@@ -18,7 +18,7 @@ from wbik.expectations import ExpectationError, Rule, judge
 from wbik.motion.walking.physics import Servos
 from wbik.motion.walking.scenario import physics_keys, simulated_animation
 from wbik.motion.walking.stabiliser import PhysicsSettings
-from wbik.scenario_schema import (
+from wbik.scenarios.schema import (
     START,
     Robot,
     backend_key,

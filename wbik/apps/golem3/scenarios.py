@@ -16,7 +16,7 @@ from wbik.motion.scenarios import (
     vector_of,
 )
 from wbik.qp.task_entries import VECTOR3
-from wbik.scenario_schema import kind_schema
+from wbik.scenarios.schema import kind_schema
 from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, start_of
 from wbik.schema import Either, Key, Map, Vector
 

@@ -14,7 +14,7 @@ from wbik.apps.riveting.scene import build_scene
 from wbik.errors import WbikError, did_you_mean
 from wbik.models import load
 from wbik.qp.task_entries import NON_NEGATIVE, POSITIVE, VECTOR3
-from wbik.scenario_schema import Robot, backend_key, common_keys, expect_block, time_laws
+from wbik.scenarios.schema import Robot, backend_key, common_keys, expect_block, time_laws
 from wbik.scenarios.kinds import (
     Progress,
     ScenarioError,

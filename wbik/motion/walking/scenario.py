@@ -23,7 +23,7 @@ from wbik.motion.walking.timeline import Timing
 from wbik.motion.walking.tracking import Tracker, TrackingSettings, leg_collision_model, trunk_frame, walk
 from wbik.mujoco_model import carrier
 from wbik.qp.task_entries import FRAME, VECTOR3
-from wbik.scenario_schema import (
+from wbik.scenarios.schema import (
     START,
     Robot,
     apply_soles,
