@@ -348,9 +348,9 @@ def talos_reach_steps():
     """One QP step of the first reach of tasks/talos_reach.yaml (Talos from half-sitting, nv 38, both soles
     held, the right gripper to a point, the trunk's orientation soft at 0.1, regularisation 1e-6, joint
     limits, the CoM 20 mm inside the soles' polygon, hard), ours and PlaCo's, as ``{name: step}``."""
-    from wbik.scenarios.schema import validate
     from wbik.scenarios import load_scenario
     from wbik.scenarios.kinds import robot_of, start_of
+    from wbik.scenarios.schema import validate
     from wbik.solvers.placo import import_placo, placo_robot
 
     spec = validate(load_scenario(TALOS_TASK), str(TALOS_TASK))

@@ -42,8 +42,8 @@ def setup(name: str):
     from wbik.motion.walking.footsteps import StepCommand
     from wbik.motion.walking.scenario import _spec_objects
     from wbik.motion.walking.timeline import Timing
-    from wbik.scenarios.schema import validate
     from wbik.scenarios.kinds import robot_of, start_of
+    from wbik.scenarios.schema import validate
 
     spec = validate(spec_of(name), name)
     robot = robot_of(spec)

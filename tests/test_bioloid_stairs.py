@@ -289,8 +289,8 @@ def test_a_foot_into_a_riser_is_refused(robot):
 
 
 def test_schema_refuses_unknown_stair_keys():
-    from wbik.scenarios.schema import validate
     from wbik.scenarios.kinds import UnknownScenarioKeyError
+    from wbik.scenarios.schema import validate
 
     with pytest.raises(UnknownScenarioKeyError):
         validate({"kind": "bioloid_stairs", "stairs": {"steps": 2, "riser": 0.03}}, "test")

@@ -14,9 +14,9 @@ import wbik
 from wbik.collision import CollisionModel, Obstacle, Primitive, box, capsule, robot_collision_model
 from wbik.errors import InvalidSettingError, RobotDescriptionError, UnknownFrameError, WbikError
 from wbik.qp import CollisionAvoidance, IKProblem, JointPositionLimits, Kinematics, PositionTask
-from wbik.scenarios.schema import validate
 from wbik.scenarios import load_scenario, run_scenario
 from wbik.scenarios.kinds import ScenarioValueError
+from wbik.scenarios.schema import validate
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 

@@ -14,8 +14,8 @@ from schema_walk import key_paths, written
 from wbik.data import shipped_tasks
 from wbik.errors import WbikError
 from wbik.qp.task_entries import AXES
-from wbik.scenarios.schema import validate
 from wbik.scenarios.kinds import KIND_REGISTRY
+from wbik.scenarios.schema import validate
 from wbik.schema import Boolean, Either, ListOf, Map, Number, Text, Variants, Vector
 
 

@@ -39,7 +39,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "wbik"
 CORE = ("wbik.errors", "wbik.dependencies", "wbik.peer_output", "wbik.validation", "wbik.schema",
         "wbik.options", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry", "wbik.kernels",
         "wbik.robot", "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion",
-        "wbik.study", "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.expectations", "wbik.scenarios", "wbik.urdf", "wbik.kinematic_tree", "wbik.mujoco_model")
+        "wbik.study", "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.expectations", "wbik.scenarios",
+        "wbik.urdf", "wbik.kinematic_tree", "wbik.mujoco_model")
 ROBOT_PACKAGES = ("wbik.robot_packages",)
 APPLICATIONS = ("wbik.apps", *ROBOT_PACKAGES)  # what the core must not import (robot packages too)
 ENTRY_POINTS = ("wbik.cli", "wbik.commands", "wbik.catalog")

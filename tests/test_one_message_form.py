@@ -12,8 +12,8 @@ import yaml
 
 import wbik
 from wbik.errors import InvalidOptionError, InvalidSettingError
-from wbik.scenarios.schema import validate
 from wbik.scenarios.kinds import ScenarioValueError
+from wbik.scenarios.schema import validate
 from wbik.study.definition import load_study
 from wbik.study.spec import StudyDefinitionError
 from wbik.wholebody.problem import WholeBody

@@ -40,9 +40,9 @@ def talos():
     """Talos with its soles and start as tasks/talos_reach.yaml gives them."""
     from pathlib import Path
 
-    from wbik.scenarios.schema import validate
     from wbik.scenarios import load_scenario
     from wbik.scenarios.kinds import robot_of, start_of
+    from wbik.scenarios.schema import validate
 
     path = Path(__file__).resolve().parents[1] / "tasks" / "talos_reach.yaml"
     spec = validate(load_scenario(path), str(path))

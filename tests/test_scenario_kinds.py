@@ -20,7 +20,6 @@ import pytest
 
 import wbik
 from wbik.errors import MissingDependencyError
-from wbik.scenarios.schema import Robot, common_keys, validate
 from wbik.scenarios import (
     ScenarioKind,
     ScenarioReport,
@@ -32,6 +31,7 @@ from wbik.scenarios import (
 )
 from wbik.scenarios import kinds as registry
 from wbik.scenarios.kinds import ScenarioValueError, UnknownScenarioKeyError
+from wbik.scenarios.schema import Robot, common_keys, validate
 from wbik.schema import Key, Map, Number, Refused
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"

@@ -22,7 +22,6 @@ from wbik.errors import (
     WbikError,
 )
 from wbik.expectations import ExpectationError
-from wbik.scenarios.schema import validate
 from wbik.scenarios import load_scenario, run_scenario
 from wbik.scenarios.kinds import (
     KIND_REGISTRY,
@@ -32,6 +31,7 @@ from wbik.scenarios.kinds import (
     ScenarioValueError,
     UnknownScenarioKeyError,
 )
+from wbik.scenarios.schema import validate
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 WBIK = Path(sys.executable).parent / "wbik"

@@ -269,8 +269,8 @@ def test_talos_walk_file_passes_with_its_expectations():
 
 
 def test_walk_schema_refuses_unknown_keys_with_a_guess():
-    from wbik.scenarios.schema import validate
     from wbik.scenarios.kinds import UnknownScenarioKeyError
+    from wbik.scenarios.schema import validate
 
     with pytest.raises(UnknownScenarioKeyError, match="did you mean 'clearance'"):
         validate({"kind": "walk", "robot": "bioloid", "clearence": 0.02, "walks": [{}]}, "w.yaml")

@@ -17,16 +17,6 @@ from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
 from wbik.motion.trajectory import make_trajectory
 from wbik.qp.task_entries import VECTOR3
-from wbik.scenarios.schema import (
-    START,
-    Method,
-    Robot,
-    common_keys,
-    expect_block,
-    kind_schema,
-    time_laws,
-    timing_modes,
-)
 from wbik.scenarios.kinds import (
     KindRun,
     Progress,
@@ -36,6 +26,16 @@ from wbik.scenarios.kinds import (
     ScenarioValueError,
     format_entries,
     start_of,
+)
+from wbik.scenarios.schema import (
+    START,
+    Method,
+    Robot,
+    common_keys,
+    expect_block,
+    kind_schema,
+    time_laws,
+    timing_modes,
 )
 from wbik.schema import Either, Key, ListOf, Map, Number, Text, Vector, default_of
 from wbik.solvers.method_registry import solver

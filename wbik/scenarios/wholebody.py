@@ -27,6 +27,16 @@ from wbik.qp.task_entries import (
     TaskEntryError,
     build_task,
 )
+from wbik.scenarios.kinds import (
+    KindRun,
+    Progress,
+    ScenarioError,
+    ScenarioKind,
+    ScenarioReport,
+    ScenarioValueError,
+    format_entries,
+    start_of,
+)
 from wbik.scenarios.schema import (
     START,
     Robot,
@@ -37,16 +47,6 @@ from wbik.scenarios.schema import (
     expect_block,
     margin_key,
     soles_key,
-)
-from wbik.scenarios.kinds import (
-    KindRun,
-    Progress,
-    ScenarioError,
-    ScenarioKind,
-    ScenarioReport,
-    ScenarioValueError,
-    format_entries,
-    start_of,
 )
 from wbik.schema import Anything, Boolean, Context, Either, Key, ListOf, Map, Number, Text, Vector
 from wbik.solvers.method_registry import method_factory, methods, solver

@@ -18,6 +18,7 @@ from wbik.expectations import ExpectationError, Rule, judge
 from wbik.motion.walking.physics import Servos
 from wbik.motion.walking.scenario import physics_keys, simulated_animation
 from wbik.motion.walking.stabiliser import PhysicsSettings
+from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
 from wbik.scenarios.schema import (
     START,
     Robot,
@@ -29,7 +30,6 @@ from wbik.scenarios.schema import (
     time_laws,
     timing_modes,
 )
-from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
 from wbik.scenarios.wholebody import CONTACT_TOLERANCE
 from wbik.schema import Boolean, Key, ListOf, Map, Number, Text, default_of, from_dataclass
 from wbik.viz.animation import Animation, Overlays

@@ -16,8 +16,8 @@ from wbik.motion.scenarios import (
     vector_of,
 )
 from wbik.qp.task_entries import VECTOR3
-from wbik.scenarios.schema import kind_schema
 from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, start_of
+from wbik.scenarios.schema import kind_schema
 from wbik.schema import Either, Key, Map, Vector
 
 APPROACH_RULES = {**MOVE_RULES, "lift": Rule("lift", "==")}  # lift: whether the torso lift moved

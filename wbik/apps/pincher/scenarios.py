@@ -16,8 +16,8 @@ from wbik.motion.scenarios import (
     timing_node,
     vector_of,
 )
-from wbik.scenarios.schema import expect_block, kind_schema
 from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, start_of
+from wbik.scenarios.schema import expect_block, kind_schema
 from wbik.schema import Either, Key, ListOf, Map, Number, Text, Variants, Vector
 
 

@@ -14,7 +14,6 @@ from wbik.apps.riveting.scene import build_scene
 from wbik.errors import WbikError, did_you_mean
 from wbik.models import load
 from wbik.qp.task_entries import NON_NEGATIVE, POSITIVE, VECTOR3
-from wbik.scenarios.schema import Robot, backend_key, common_keys, expect_block, time_laws
 from wbik.scenarios.kinds import (
     Progress,
     ScenarioError,
@@ -22,6 +21,7 @@ from wbik.scenarios.kinds import (
     ScenarioReport,
     UnknownExpectationKeyError,
 )
+from wbik.scenarios.schema import Robot, backend_key, common_keys, expect_block, time_laws
 from wbik.schema import (
     Context,
     Either,

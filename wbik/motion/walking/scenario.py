@@ -23,6 +23,7 @@ from wbik.motion.walking.timeline import Timing
 from wbik.motion.walking.tracking import Tracker, TrackingSettings, leg_collision_model, trunk_frame, walk
 from wbik.mujoco_model import carrier
 from wbik.qp.task_entries import FRAME, VECTOR3
+from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
 from wbik.scenarios.schema import (
     START,
     Robot,
@@ -34,7 +35,6 @@ from wbik.scenarios.schema import (
     margin_key,
     soles_key,
 )
-from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
 from wbik.schema import Boolean, Context, Either, Key, ListOf, Map, Number, Text, default_of, from_dataclass
 from wbik.viz.animation import Animation, Overlays
 
