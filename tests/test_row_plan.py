@@ -74,10 +74,12 @@ def two_feet_problem(robot) -> tuple[IKProblem, np.ndarray]:
 
 
 def python_twin(problem: IKProblem) -> IKProblem:
-    """The same problem, started at the same q, with its rows always stacked through Python (no plan)."""
+    """The same problem, started at the same q, with its rows always stacked through Python: its
+    constraints offer no compiled rows, so no start or step makes it a plan."""
     twin = copy.deepcopy(problem)
+    for constraint in twin.constraints:
+        constraint.compiled_rows = lambda kinematics, rows: None
     twin.start(problem.kinematics.q, clip=False)  # (a copy's tasks make their compiled rows at the start)
-    twin.qp._planned = True
     return twin
 
 
@@ -151,6 +153,7 @@ def test_the_ik_and_its_steps_are_the_same_with_and_without_the_plan(bioloid):
     problem, q0 = one_foot_problem(bioloid)
     twin = python_twin(problem)
     planned, python = problem.solve(q0), twin.solve(q0)
+    assert twin.qp._plan is None and twin.qp._planned  # (asked at the solve's start, and refused)
     assert planned.success and python.success
     assert planned.iterations == python.iterations
     assert np.abs(planned.q - python.q).max() <= 1e-12
