@@ -8,6 +8,7 @@ The hull is qhull's, pruned at :func:`hull_tolerance`; points spanning no area a
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -33,15 +34,17 @@ def _degenerate(points: np.ndarray, why: str) -> DegenerateSupportPolygonError:
         "point feet not on one line, or one flat sole, make a polygon")
 
 
-def _deviation(before: np.ndarray, here: np.ndarray, after: np.ndarray) -> float:
+def _deviation(before: tuple[float, float], here: tuple[float, float], after: tuple[float, float]) -> float:
     """Distance of ``here`` from the chord (before, after), or from ``before`` when that is less."""
-    (chord_x, chord_y), (gap_x, gap_y) = after - before, here - before
-    chord, gap = float(np.hypot(chord_x, chord_y)), float(np.hypot(gap_x, gap_y))
-    return min(abs(float(chord_x * gap_y - chord_y * gap_x)) / chord if chord > 0.0 else gap, gap)
+    chord_x, chord_y, gap_x, gap_y = after[0] - before[0], after[1] - before[1], here[0] - before[0], \
+        here[1] - before[1]
+    chord, gap = math.hypot(chord_x, chord_y), math.hypot(gap_x, gap_y)
+    return min(abs(chord_x * gap_y - chord_y * gap_x) / chord if chord > 0.0 else gap, gap)
 
 
-def _prune(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
-    """Drop vertices within ``tolerance`` of their neighbours' segment or of the previous one, least first."""
+def _prune(vertices: list[tuple[float, float]], tolerance: float) -> list[tuple[float, float]]:
+    """Drop vertices within ``tolerance`` of their neighbours' segment or of the previous one, least first
+    (the vertices as (x, y) floats: a few scalar operations each, cheaper in Python than in NumPy)."""
     while len(vertices) >= 3:
         count = len(vertices)
         deviations = [_deviation(vertices[i - 1], here, vertices[(i + 1) % count])
@@ -81,11 +84,11 @@ def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TO
         hull = ConvexHull(points)  # 2-D: vertices counter-clockwise
     except QhullError as exc:  # not expected above the width test; never let a raw qhull error out
         raise _degenerate(points, f"qhull could not build their hull ({str(exc).splitlines()[0]})") from exc
-    vertices = _prune([points[i] for i in hull.vertices], tolerance)
+    vertices = _prune([tuple(point) for point in points[hull.vertices].tolist()], tolerance)
     if len(vertices) < 3:
         raise _degenerate(points, "their hull is a segment at the tolerance")
-    vertices = np.array(vertices)
-    return np.roll(vertices, -np.lexsort((vertices[:, 1], vertices[:, 0]))[0], axis=0)
+    first = min(range(len(vertices)), key=vertices.__getitem__)  # the lowest (x, y)
+    return np.array(vertices[first:] + vertices[:first])
 
 
 class SupportPolygon:
@@ -94,11 +97,14 @@ class SupportPolygon:
     def __init__(self, points: np.ndarray, labels: Sequence[str] | None = None):
         points = np.asarray(points, dtype=float).reshape(-1, 2)
         self.vertices = convex_hull(points)
-        nearest = np.argmin(((self.vertices[:, None, :] - points[None, :, :]) ** 2).sum(axis=2), axis=1)
-        named = labels is not None and len(labels) == len(points)
-        self.vertex_labels = [str(labels[i]) if named else f"vertex {k}" for k, i in enumerate(nearest)]
+        if labels is not None and len(labels) == len(points):
+            nearest = np.argmin(((self.vertices[:, None, :] - points[None, :, :]) ** 2).sum(axis=2), axis=1)
+            self.vertex_labels = [str(labels[i]) for i in nearest.tolist()]
+        else:
+            self.vertex_labels = [f"vertex {k}" for k in range(len(self.vertices))]
         """Each vertex's name: its contact point's label (``labels``, one per point), else "vertex i"."""
-        edges = np.roll(self.vertices, -1, axis=0) - self.vertices
+        vertices = self.vertices
+        edges = np.concatenate((vertices[1:], vertices[:1])) - vertices
         self.normals = np.column_stack((edges[:, 1], -edges[:, 0])) / np.linalg.norm(edges, axis=1)[:, None]
         self.offsets = np.einsum("ij,ij->i", self.normals, self.vertices)
 
