@@ -226,21 +226,26 @@ class Simulation:
     def contact_forces(self) -> tuple[float, np.ndarray, set[str]]:
         """(sum of the soles' normal forces f_n (N), sum f_n r (x, y), the soles pressed)."""
         mujoco, data = self.mujoco, self.data
-        total, moment, soles = 0.0, np.zeros(2), set()
+        soles: set[str] = set()
         if data.ncon == 0:
-            return total, moment, soles
+            return 0.0, np.zeros(2), soles
         contacts = data.contact  # the fields as arrays: one view each, not one struct per contact
-        first, second, points = contacts.geom1.tolist(), contacts.geom2.tolist(), contacts.pos
+        first, second = contacts.geom1.tolist(), contacts.geom2.tolist()
+        points, force, sole_geoms = contacts.pos[:, :2].tolist(), self._force, self.sole_geoms
+        total = moment_x = moment_y = 0.0  # (Python floats: the same products and sums as NumPy's)
         for i in range(data.ncon):
-            sole = self.sole_geoms.get(first[i]) or self.sole_geoms.get(second[i])
+            sole = sole_geoms.get(first[i]) or sole_geoms.get(second[i])
             if sole is None:
                 continue
-            mujoco.mj_contactForce(self.model, data, i, self._force)
-            if self._force[0] > 0:
-                total += self._force[0]
-                moment += self._force[0] * points[i, :2]
+            mujoco.mj_contactForce(self.model, data, i, force)
+            normal = force.item(0)
+            if normal > 0:
+                x, y = points[i]
+                total += normal
+                moment_x += normal * x
+                moment_y += normal * y
                 soles.add(sole)
-        return total, moment, soles
+        return total, np.array([moment_x, moment_y]), soles
 
     def support(self, soles: list[str]) -> SupportPolygon:
         """The polygon of the simulated soles ``soles`` projected on the floor."""
