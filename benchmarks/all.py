@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import platform
 import sys
@@ -41,8 +42,21 @@ BENCHMARKS = {  # name -> module in benchmarks/ with ratios(quick)
 }
 
 
+def interpreter_probe(additions: int = 1_000_000, rounds: int = 5) -> float:
+    """Seconds for ``additions`` integer additions in a Python loop, best of ``rounds``: how fast this
+    machine runs the interpreter, the part of our time that no compiled peer has. Ratios to compiled peers
+    move with it (docs/benchmarks.md), so a run is read beside its probe."""
+    best = math.inf
+    for _ in range(rounds):
+        started, total = time.perf_counter(), 0
+        for value in range(additions):
+            total += value
+        best = min(best, time.perf_counter() - started)
+    return best
+
+
 def machine() -> dict:
-    """What the figures were measured on."""
+    """What the figures were measured on (``python_loop_s``: :func:`interpreter_probe`)."""
     import numpy
     import pinocchio
 
@@ -54,7 +68,8 @@ def machine() -> dict:
         pass
     return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
             "numpy": numpy.__version__, "pinocchio": pinocchio.__version__,
-            "load_average": [round(value, 2) for value in os.getloadavg()]}
+            "load_average": [round(value, 2) for value in os.getloadavg()],
+            "python_loop_s": round(interpreter_probe(), 4)}
 
 
 def _figure(value: float, unit: str) -> str:
@@ -98,7 +113,8 @@ def main(argv: list[str] | None = None) -> int:
     arguments = parser.parse_args(argv)
     facts = machine()
     print(f"machine: {facts['cpu']}, {facts['cores']} cores, Python {facts['python']}, "
-          f"NumPy {facts['numpy']}, Pinocchio {facts['pinocchio']}, load {facts['load_average']}")
+          f"NumPy {facts['numpy']}, Pinocchio {facts['pinocchio']}, load {facts['load_average']}, "
+          f"1M Python additions in {facts['python_loop_s'] * 1e3:.0f} ms")
     results = run(arguments.only, arguments.quick)
     print(format_table(results))
     goals = [ratio.met for _, ratio in results if ratio.met is not None]
