@@ -11,6 +11,8 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import wbik
 from wbik.solvers.analytic.closed_form import wrap_into_limits
@@ -207,6 +209,22 @@ def test_position_only_slow_convergence_near_the_boundary(robot, name, seed, ind
     result = solver.solve(poses[index].translation)
     assert result.success, result.reason
     assert result.position_error <= 1e-9
+
+
+@settings(max_examples=12, deadline=None)
+@given(case=st.sampled_from([("right_arm", 2017, 1462), ("right_arm", 100, 8870), ("left_arm", 103, 162)]),
+       scale=st.sampled_from([1e-14, 1e-12, 1e-10]), seed=st.integers(0, 2**32 - 1))
+def test_position_only_slow_convergence_survives_rounding_noise(robot, case, scale, seed):
+    """Those positions' joints moved by relative noise of 1e-14 to 1e-10 (another machine's last bits):
+    the FK of joints inside the limits is still solved."""
+    name, study_seed, index = case
+    solver = wbik.solver("analytic", robot, chain=name)
+    chain = solver.chain
+    joints = chain.random(np.random.default_rng(study_seed), index + 1)[index]
+    noisy = joints * (1.0 + scale * np.random.default_rng(seed).uniform(-1.0, 1.0, joints.shape))
+    noisy = np.clip(noisy, chain.lower, chain.upper)
+    result = solver.solve(chain.fk(noisy).translation)
+    assert result.success, result.reason
 
 
 def test_unreachable_targets_fail_quickly_with_a_reason(right, left):
